@@ -1,0 +1,99 @@
+"""Sine-activated networks: parametrization net, inverse-lambda net, 2D shape-deform net."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+from torch import nn
+
+__all__ = ["NetConfig", "SineMLP", "ParamNet", "LambdaInvNet", "DeformNet"]
+
+
+@dataclass(frozen=True)
+class NetConfig:
+    """Architecture and initialization of one sine-activated MLP."""
+
+    width: int = 128
+    """Hidden units per layer (paper, Figure "neural net arch": fully connected)."""
+    depth: int = 3
+    """Number of hidden (sine) layers."""
+    init: str = "siren"
+    """``"siren"``: Sitzmann et al.'s initialization with frequency ``w0``;
+    ``"default"``: PyTorch's default Linear initialization and plain ``sin``,
+    which is what the paper's "randomly initialized" networks use."""
+    w0: float = 5.0
+    """SIREN frequency of the first layer (``sin(w0 * (W x + b))``) on inputs in
+    the unit ball; 5 reproduced a fine map best in our measurements (DESIGN.md)."""
+
+    def __post_init__(self) -> None:
+        if self.init not in ("siren", "default"):
+            raise ValueError(f"NetConfig.init must be 'siren' or 'default', got {self.init!r}")
+        if self.width < 1 or self.depth < 1:
+            raise ValueError(f"NetConfig width and depth must be >= 1, got {self.width}, {self.depth}")
+
+
+class SineMLP(nn.Module):
+    """``in_dim -> [sin(Linear)] * depth -> Linear -> out_dim``.
+
+    With ``init="siren"`` the first layer computes ``sin(w0 * (W x + b))`` and
+    the weights follow SIREN (first layer U(-1/in, 1/in), hidden layers
+    U(-sqrt(6/width)/w0', ...)) so that activations stay well spread; with
+    ``init="default"`` every layer is ``sin(W x + b)`` with PyTorch's default init.
+    """
+
+    def __init__(self, in_dim: int, out_dim: int, config: NetConfig) -> None:
+        super().__init__()
+        self.config = config
+        dims = [in_dim] + [config.width] * config.depth
+        self.hidden = nn.ModuleList(nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:]))
+        self.out = nn.Linear(dims[-1], out_dim)
+        self.first_scale = config.w0 if config.init == "siren" else 1.0
+        if config.init == "siren":
+            self._siren_init()
+
+    @torch.no_grad()
+    def _siren_init(self) -> None:
+        for k, layer in enumerate(self.hidden):
+            fan_in = layer.in_features
+            bound = 1.0 / fan_in if k == 0 else math.sqrt(6.0 / fan_in)
+            layer.weight.uniform_(-bound, bound)
+            layer.bias.uniform_(-1.0 / math.sqrt(fan_in), 1.0 / math.sqrt(fan_in))
+        bound = math.sqrt(6.0 / self.out.in_features)
+        self.out.weight.uniform_(-bound, bound)
+        self.out.bias.zero_()
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = torch.sin(self.first_scale * self.hidden[0](x))
+        for layer in self.hidden[1:]:
+            h = torch.sin(layer(h))
+        return self.out(h)
+
+
+class ParamNet(SineMLP):
+    """Parametrization net f: R^3 -> R^2, sine hidden layers, linear output."""
+
+    def __init__(self, config: NetConfig = NetConfig()) -> None:
+        super().__init__(3, 2, config)
+
+
+class LambdaInvNet(nn.Module):
+    """Inverse-lambda net l: R^3 -> R_{>0}, sine hidden layers, softplus output.
+
+    ``1 / lambda(x_i, x_j) = l(x_i) + l(x_j)`` in LEG; softplus keeps it positive.
+    """
+
+    def __init__(self, config: NetConfig = NetConfig(width=64, depth=2)) -> None:
+        super().__init__()
+        self.body = SineMLP(3, 1, config)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return nn.functional.softplus(self.body(x)).squeeze(-1)
+
+
+class DeformNet(SineMLP):
+    """2D shape-deform net R^2 -> R^2 (the paper's HAND-only experiment, section 7.1)."""
+
+    def __init__(self, config: NetConfig = NetConfig(width=64, depth=2)) -> None:
+        super().__init__(2, 2, config)
