@@ -1,0 +1,195 @@
+"""Map quality measures (pcgeom.apps.evaluate)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+
+import numpy as np
+import pytest
+from scipy.spatial.distance import cdist
+
+from pcgeom.apps.evaluate import AngleReport, angle_distortion, domain_hausdorff, hausdorff
+from pcgeom.domains import Disk
+from pcgeom.examples import peaks_surface
+
+requires_igl = pytest.mark.skipif(importlib.util.find_spec("igl") is None, reason="needs libigl")
+
+
+def _planar_mesh() -> tuple[np.ndarray, np.ndarray]:
+    """Flat grid in z = 0 with a slight shear so angles vary. V (36, 3), F (50, 3)."""
+    V, F = peaks_surface("peaks3", n_side=6)
+    V = V.copy()
+    V[:, 0] += 0.2 * V[:, 1]
+    V[:, 2] = 0.0
+    return V, F
+
+
+def _signed_areas(U, F) -> np.ndarray:
+    """Naive loop reference for twice the signed area of each triangle. (M,)"""
+    out = []
+    for a, b, c in F:
+        (x0, y0), (x1, y1), (x2, y2) = U[a], U[b], U[c]
+        out.append((x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0))
+    return np.array(out)
+
+
+@requires_igl
+def test_identity_and_similarity_have_no_distortion():
+    V, F = _planar_mesh()
+    report = angle_distortion(V, F, V[:, :2])
+    assert isinstance(report, AngleReport)
+    assert report.mean_abs < 1e-12 and report.flipped == 0 and report.n_faces == len(F)
+    assert report.per_corner.shape == (len(F), 3)
+    c, s = np.cos(0.7), np.sin(0.7)
+    U = 3.5 * V[:, :2] @ np.array([[c, -s], [s, c]]) + np.array([10.0, -4.0])
+    report = angle_distortion(V, F, U)
+    assert report.mean_abs < 1e-12 and report.flipped == 0
+
+
+@requires_igl
+def test_mirrored_map_flips_nothing():
+    V, F = _planar_mesh()
+    U = V[:, :2] * np.array([1.0, -1.0])
+    report = angle_distortion(V, F, U)
+    assert (_signed_areas(U, F) < 0).all()  # every triangle reversed ...
+    assert report.flipped == 0  # ... which is a mirror, not a fold
+    assert report.mean_abs < 1e-12
+
+
+@requires_igl
+def test_folded_triangles_are_counted():
+    # Triangle soup: each face owns its vertices, so single triangles can be mirrored.
+    V0, F0 = _planar_mesh()
+    V = V0[F0].reshape(-1, 3)
+    F = np.arange(len(V)).reshape(-1, 3)
+    U = V[:, :2].copy()
+    folded = [3, 17, 40]
+    for f in folded:
+        U[F[f]] = U[F[f]] * np.array([-1.0, 1.0])
+    report = angle_distortion(V, F, U)
+    assert report.flipped == len(folded)
+    assert report.mean_abs < 1e-12  # a mirrored triangle keeps its angles
+    # Majority rule: mirroring all but those three leaves the same three flipped.
+    report = angle_distortion(V, F, U * np.array([-1.0, 1.0]))
+    assert report.flipped == len(folded)
+
+
+@requires_igl
+def test_fold_in_a_connected_mesh_matches_naive_count():
+    V, F = _planar_mesh()
+    U = V[:, :2].copy()
+    U[14] = U[14] + np.array([0.9, 0.0])  # drag an interior vertex across its neighbours
+    areas = _signed_areas(U, F)
+    expected = min((areas > 0).sum(), (areas < 0).sum()) + (areas == 0).sum()
+    report = angle_distortion(V, F, U)
+    assert expected > 0 and report.flipped == expected
+    assert report.mean_abs > 0.01
+
+
+@requires_igl
+def test_degenerate_triangle_counts_as_flipped():
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
+    F = np.array([[0, 1, 2], [1, 3, 2]])
+    U = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [1.0, 1.0]])  # first face collinear
+    assert angle_distortion(V, F, U).flipped == 1
+
+
+@requires_igl
+def test_single_triangle_by_hand():
+    # Right isosceles triangle (90, 45, 45 degrees) mapped to an equilateral one (60 each).
+    V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    U = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, np.sqrt(3) / 2]])
+    report = angle_distortion(V, [[0, 1, 2]], U)
+    np.testing.assert_allclose(report.per_corner, [[np.pi / 6, np.pi / 12, np.pi / 12]])
+    assert report.mean_abs == pytest.approx(np.pi / 9)
+    assert report.flipped == 0 and report.n_faces == 1
+
+
+@requires_igl
+def test_lscm_on_peaks_is_accurate():
+    import igl
+
+    V, F = peaks_surface("peaks3")
+    loop = igl.boundary_loop(F)
+    pinned = np.array([loop[0], loop[len(loop) // 2]])
+    uv, _ = igl.lscm(V, F, pinned, np.array([[0.0, 0.0], [1.0, 0.0]]))
+    report = angle_distortion(V, F, uv)
+    assert report.mean_abs < 0.02  # measured 0.0085 rad (libigl 2.6)
+    assert report.flipped == 0
+
+
+@requires_igl
+def test_float_faces_holding_integers_are_accepted():
+    V, F = _planar_mesh()
+    assert angle_distortion(V, F.astype(np.float64), V[:, :2]).flipped == 0
+
+
+def test_angle_distortion_input_errors():
+    V, F = _planar_mesh()
+    U = V[:, :2]
+    with pytest.raises(ValueError, match=r"V: expected shape \(N, 3\), got \(36, 2\)"):
+        angle_distortion(V[:, :2], F, U)
+    match = r"U: expected shape \(36, 2\) \(one row per row of V\), got \(35, 2\)"
+    with pytest.raises(ValueError, match=match):
+        angle_distortion(V, F, U[:-1])
+    with pytest.raises(ValueError, match=r"U: expected shape \(36, 2\) .*, got \(36, 3\)"):
+        angle_distortion(V, F, V)
+    with pytest.raises(ValueError, match=r"F: expected shape \(M, 3\), got \(50, 4\)"):
+        angle_distortion(V, np.column_stack([F, F[:, 0]]), U)
+    with pytest.raises(ValueError, match=r"F: expected at least one face"):
+        angle_distortion(V, np.zeros((0, 3), dtype=np.int64), U)
+    match = r"F: references vertices 0\.\.36, expected indices in \[0, 36\) \(V has 36 rows\)"
+    with pytest.raises(ValueError, match=match):
+        angle_distortion(V, np.vstack([F, [[0, 1, 36]]]), U)
+    with pytest.raises(ValueError, match=r"F: references vertices -1\.\.35"):
+        angle_distortion(V, np.vstack([F, [[0, 1, -1]]]), U)
+    with pytest.raises(TypeError, match="F: expected integer vertex indices, got dtype float64"):
+        angle_distortion(V, F + 0.5, U)
+    U_nan = U.copy()
+    U_nan[3, 1] = np.nan
+    with pytest.raises(ValueError, match="U: contains NaN or inf"):
+        angle_distortion(V, F, U_nan)
+
+
+def test_missing_igl_gives_install_command(monkeypatch):
+    V, F = _planar_mesh()
+    monkeypatch.setitem(sys.modules, "igl", None)  # makes `import igl` raise ImportError
+    match = r"angle_distortion needs libigl: pip install 'libigl>=2\.6'"
+    with pytest.raises(ImportError, match=match):
+        angle_distortion(V, F, V[:, :2])
+
+
+def test_hausdorff_known_value_and_naive_reference():
+    assert hausdorff([[0.0, 0.0]], [[0.0, 0.0], [3.0, 4.0]]) == pytest.approx(5.0)
+    assert hausdorff([[0.0, 0.0], [3.0, 4.0]], [[0.0, 0.0]]) == pytest.approx(5.0)
+    rng = np.random.default_rng(2)
+    A, B = rng.normal(size=(300, 3)), rng.normal(size=(170, 3)) + 0.3
+    D = cdist(A, B)
+    naive = max(D.min(axis=1).max(), D.min(axis=0).max())
+    assert hausdorff(A, B) == pytest.approx(naive, rel=1e-12)
+    assert hausdorff(A, A) == 0.0
+
+
+def test_hausdorff_errors():
+    with pytest.raises(ValueError, match=r"B: expected shape \(m, 2\) with m >= 1, got \(4, 3\)"):
+        hausdorff(np.zeros((3, 2)), np.zeros((4, 3)))
+    match = r"A: expected a non-empty \(n, d\) array, got shape \(0, 2\)"
+    with pytest.raises(ValueError, match=match):
+        hausdorff(np.zeros((0, 2)), np.zeros((4, 2)))
+    with pytest.raises(ValueError, match="A, B: contain NaN or inf"):
+        hausdorff([[np.nan, 0.0]], [[0.0, 0.0]])
+
+
+def test_domain_hausdorff():
+    disk = Disk()
+    # Mapped cloud covers the disk: only the two samples' resolutions remain.
+    assert domain_hausdorff(disk.sample(5000, seed=1), disk) < 0.03
+    # Cloud squeezed into the half-radius disk misses the outer ring by about 0.5.
+    assert domain_hausdorff(Disk(radius=0.5).sample(5000), disk) == pytest.approx(0.5, abs=0.01)
+    # Cloud only on the circle: the centre is about 1 away.
+    assert domain_hausdorff(disk.boundary(400), disk) == pytest.approx(1.0, abs=0.01)
+    with pytest.raises(TypeError, match="domain: expected a pcgeom.domains.Domain, got NoneType"):
+        domain_hausdorff(disk.sample(10), None)
+    with pytest.raises(ValueError, match=r"U: expected shape \(N, 2\), got \(10, 3\)"):
+        domain_hausdorff(np.zeros((10, 3)), disk)
