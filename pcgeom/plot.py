@@ -1,0 +1,226 @@
+"""Figures: a 2D map coloured by a per-point value, per-stage loss curves, angle histograms.
+
+matplotlib is imported inside each function (it is slow to import and only figures need it),
+and figures are built with :class:`matplotlib.figure.Figure` on the Agg canvas, never through
+``pyplot``: no global figure state, no GUI backend, safe in scripts, servers and tests.
+
+Every PNG is written atomically (temporary file in the target directory, then ``os.replace``),
+so an interrupted run never leaves a truncated image behind.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import secrets
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["plot_map", "plot_history", "plot_angle_histogram"]
+
+# Loss terms drawn by plot_history, in legend order (the keys optim's history uses).
+_LOSS_TERMS = ("total", "leg", "hand", "landmarks")
+
+
+def _new_figure(figsize: tuple[float, float]):
+    """A Figure attached to an Agg canvas (PNG output without pyplot or a display)."""
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError as exc:
+        raise ImportError("pcgeom.plot needs matplotlib: pip install 'matplotlib>=3.7'") from exc
+    fig = Figure(figsize=figsize, dpi=120, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save_png_atomic(fig, path) -> Path:
+    """Render ``fig`` as PNG to a temporary file beside ``path``, then rename it over ``path``."""
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        got = repr(path.suffix) if path.suffix else "none"
+        raise ValueError(f"path: {os.fspath(path)}: expected extension '.png', got {got}")
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
+    try:
+        # format= is required: the temporary name does not end in .png.
+        fig.savefig(tmp, format="png")
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path
+
+
+def plot_map(uv, path, values=None, domain=None, title: str | None = None) -> Path:
+    """Scatter plot of a 2D map, optionally coloured by a per-point value.
+
+    Parameters
+    ----------
+    uv : (N, 2) array_like
+        Mapped points.
+    path : str or os.PathLike
+        Output ``.png`` file, written atomically.
+    values : (N,) array_like, optional
+        Colour of each point (e.g. ``lambda_inv``), shown with a colourbar. Uniform colour when
+        omitted.
+    domain : pcgeom.domains.Domain, optional
+        Target domain; its boundary (``domain.boundary(n)``) is drawn as a closed red curve.
+    title : str, optional
+        Axes title.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        ``uv`` not (N, 2) with N >= 1, ``values`` not (N,), non-finite coordinates, or a path
+        without the ``.png`` extension.
+    """
+    uv = np.asarray(uv, dtype=np.float64)
+    if uv.ndim != 2 or uv.shape[1] != 2 or len(uv) == 0:
+        raise ValueError(f"uv: expected shape (N, 2) with N >= 1, got {uv.shape}")
+    if not np.isfinite(uv).all():
+        raise ValueError("uv: contains NaN or inf")
+    if values is not None:
+        values = np.asarray(values, dtype=np.float64)
+        if values.shape != (len(uv),):
+            raise ValueError(f"values: expected shape ({len(uv)},), got {values.shape}")
+
+    fig = _new_figure((6.0, 5.4))
+    ax = fig.add_subplot()
+    # Marker area shrinks with N so a dense cloud still shows its structure.
+    size = float(np.clip(20000.0 / len(uv), 1.0, 20.0))
+    if values is None:
+        ax.scatter(uv[:, 0], uv[:, 1], s=size, c="tab:blue", linewidths=0)
+    else:
+        sc = ax.scatter(uv[:, 0], uv[:, 1], s=size, c=values, cmap="viridis", linewidths=0)
+        fig.colorbar(sc, ax=ax, shrink=0.85)
+    if domain is not None:
+        b = np.asarray(domain.boundary(400), dtype=np.float64)  # (400, 2)
+        closed = np.vstack([b, b[:1]])
+        ax.plot(closed[:, 0], closed[:, 1], color="red", linewidth=1.2)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("u")
+    ax.set_ylabel("v")
+    if title:
+        ax.set_title(title)
+    return _save_png_atomic(fig, path)
+
+
+def _positive_or_nan(x) -> float:
+    """A loss value usable on a log axis; zero, negative, missing or non-finite give NaN."""
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return math.nan
+    return v if math.isfinite(v) and v > 0 else math.nan
+
+
+def plot_history(history, path, title: str | None = None) -> Path:
+    """Loss terms at the end of each stage of Algorithm 1, on a log scale.
+
+    Parameters
+    ----------
+    history : list of dict
+        One dict per stage, as in ``ParamResult.history``: ``"stage"`` and the loss terms
+        ``"total"``, ``"leg"``, ``"hand"``, ``"landmarks"`` (missing keys are allowed). A term
+        that is zero in every stage (e.g. ``hand`` with a free boundary) is left out, since a
+        log axis cannot show it.
+    path : str or os.PathLike
+        Output ``.png`` file, written atomically.
+    title : str, optional
+        Axes title.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        Empty history, a stage that is not a dict, or a path without the ``.png`` extension.
+    """
+    history = list(history)
+    if not history:
+        raise ValueError("history: expected at least one stage, got none")
+    for i, row in enumerate(history):
+        if not isinstance(row, dict):
+            raise ValueError(f"history: stage {i} is a {type(row).__name__}, expected a dict")
+
+    stages = np.arange(1, len(history) + 1)
+    fig = _new_figure((6.4, 4.2))
+    ax = fig.add_subplot()
+    drawn = 0
+    for term in _LOSS_TERMS:
+        y = np.array([_positive_or_nan(row.get(term)) for row in history])
+        if np.isnan(y).all():
+            continue
+        ax.plot(stages, y, marker="o", label=term, linewidth=2.0 if term == "total" else 1.2)
+        drawn += 1
+    ax.set_yscale("log")
+    ax.set_xticks(stages, [str(row.get("stage", s)) for row, s in zip(history, stages)])
+    ax.set_xlabel("stage")
+    ax.set_ylabel("loss at end of stage")
+    ax.grid(True, which="both", alpha=0.3)
+    if drawn:
+        ax.legend()
+    else:
+        ax.text(0.5, 0.5, "no positive loss values", ha="center", va="center",
+                transform=ax.transAxes)
+    if title:
+        ax.set_title(title)
+    return _save_png_atomic(fig, path)
+
+
+def plot_angle_histogram(per_corner, path, bins: int = 60, title: str | None = None) -> Path:
+    """Histogram of per-corner absolute angle distortion, with its mean marked.
+
+    Parameters
+    ----------
+    per_corner : (M, 3) or (K,) array_like
+        Absolute angle differences in radians, e.g. ``AngleReport.per_corner`` from
+        :func:`pcgeom.apps.evaluate.angle_distortion`.
+    path : str or os.PathLike
+        Output ``.png`` file, written atomically.
+    bins : int
+        Number of histogram bins.
+    title : str, optional
+        Axes title.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        No values, non-finite values, ``bins < 1``, or a path without the ``.png`` extension.
+    """
+    d = np.asarray(per_corner, dtype=np.float64).ravel()
+    if d.size == 0:
+        raise ValueError("per_corner: expected at least one value, got none")
+    if not np.isfinite(d).all():
+        raise ValueError("per_corner: contains NaN or inf")
+    if isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1:
+        raise ValueError(f"bins: expected a positive int, got {bins!r}")
+
+    fig = _new_figure((6.4, 4.2))
+    ax = fig.add_subplot()
+    ax.hist(d, bins=int(bins), color="tab:blue", alpha=0.85)
+    mean = float(d.mean())
+    ax.axvline(mean, color="red", linewidth=1.2, label=f"mean {mean:.4f} rad")
+    ax.set_xlabel("|angle in 3D - angle in map| (rad)")
+    ax.set_ylabel("triangle corners")
+    ax.legend()
+    if title:
+        ax.set_title(title)
+    return _save_png_atomic(fig, path)

@@ -1,0 +1,430 @@
+"""The command line (pcgeom.cli): one-line errors before any training, and real end-to-end runs.
+
+Success tests run the real optimizer with a tiny budget (one short stage and a few refinement
+steps), so they check the wiring and the files, not the quality of the map.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from pcgeom import cli
+from pcgeom.apps.evaluate import angle_distortion
+from pcgeom.examples import peaks_surface
+from pcgeom.io import read_points, write_ply_atomic
+from pcgeom.nets import NetConfig
+from pcgeom.optim import RefineConfig, ScheduleConfig, get_preset, parametrize
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def _tiny(name: str):
+    """The named preset shrunk to seconds: one short stage, small nets, 5 refinement steps."""
+    return get_preset(
+        name,
+        schedule=ScheduleConfig(epochs=1, epochs_min=1, batch_points=128, batch_domain=128),
+        param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),
+        lambda_net=NetConfig(width=16, depth=1, init="siren", w0=5.0),
+        domain_samples=512,
+        max_stages=1,
+        refine=RefineConfig(steps=5),
+    )
+
+
+@pytest.fixture
+def tiny(monkeypatch):
+    """Make every preset the CLI looks up tiny; unknown names still raise the real error."""
+    monkeypatch.setattr(cli, "get_preset", _tiny)
+
+
+@pytest.fixture
+def no_training(monkeypatch):
+    """Fail the test if the CLI reaches training: every check must happen before it."""
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("parametrize was called although the input is invalid")
+
+    monkeypatch.setattr(cli, "parametrize", forbidden)
+
+
+def _grid(n_side: int = 8):
+    """A small curved patch (peaks3 on an n_side x n_side grid) and its faces."""
+    return peaks_surface("peaks3", n_side=n_side)
+
+
+def _write_txt(path: Path, P: np.ndarray) -> Path:
+    np.savetxt(path, P)
+    return path
+
+
+def _files(root: Path) -> set[str]:
+    """Every file under ``root``, relative (hidden temporaries included)."""
+    return {str(p.relative_to(root)) for p in root.rglob("*") if p.is_file()}
+
+
+def _fails(capsys, argv: list[str], message: str) -> None:
+    """``main(argv)`` exits with 2 and exactly one stderr line containing ``message``."""
+    code = cli.main(argv)
+    out, err = capsys.readouterr()
+    assert code == 2, err
+    assert out == ""
+    assert err.startswith("pcgeom: error: ")
+    assert err.count("\n") == 1, err
+    assert message in err, err
+
+
+# --------------------------------------------------------------------------- errors
+
+
+def _bad_inputs(tmp_path: Path) -> dict[str, tuple[Path, str]]:
+    """Input files that must be rejected, with the message each must produce."""
+    V, _ = _grid()
+    cases = {}
+
+    empty = tmp_path / "empty.xyz"
+    empty.write_bytes(b"")
+    cases["empty"] = (empty, "empty.xyz: file is empty (0 bytes)")
+
+    garbage = tmp_path / "garbage.ply"
+    garbage.write_bytes(b"this is not a ply file\x00\x01\x02")
+    cases["garbage ply"] = (garbage, "garbage.ply: cannot parse")
+
+    unknown = tmp_path / "cloud.foo"
+    unknown.write_text("0 0 0\n")
+    cases["unknown extension"] = (unknown, "cloud.foo: unknown extension '.foo'; supported: .csv")
+
+    two_col = _write_txt(tmp_path / "two_columns.txt", V[:, :2])
+    cases["two columns"] = (
+        two_col, "two_columns.txt: expected shape (N, 3) (x y z columns), got (64, 2)")
+
+    nan = V.copy()
+    nan[[3, 7], 1] = np.nan
+    cases["nan"] = (_write_txt(tmp_path / "nan.txt", nan), "nan.txt: 2 of 64 rows contain NaN or inf")
+
+    cases["too few"] = (_write_txt(tmp_path / "few.txt", V[:5]), "few.txt: 5 points, need at least 10")
+
+    same = np.tile([[0.5, -1.0, 2.0]], (12, 1))
+    cases["coincident"] = (_write_txt(tmp_path / "same.txt", same), "same.txt: all 12 points coincide")
+
+    t = np.linspace(0.0, 1.0, 20)[:, None]
+    line = np.hstack([t, 2 * t, -t])
+    cases["collinear"] = (
+        _write_txt(tmp_path / "line.txt", line), "line.txt: all 20 points lie on one line")
+
+    cases["missing"] = (tmp_path / "nowhere.ply", "nowhere.ply: no such file")
+    return cases
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["empty", "garbage ply", "unknown extension", "two columns", "nan", "too few", "coincident",
+     "collinear", "missing"],
+)
+def test_bad_input_file(tmp_path, monkeypatch, capsys, no_training, case):
+    monkeypatch.chdir(tmp_path)
+    path, message = _bad_inputs(tmp_path)[case]
+    before = _files(tmp_path)
+    _fails(capsys, ["param", str(path)], message)
+    assert _files(tmp_path) == before  # no output, no checkpoint, no temporary file
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--domain", "square"], "unknown domain 'square'; choose one of: free, disk"),
+        (["--preset", "slow"], "unknown preset 'slow'; choose one of: paper, fast"),
+        (["--device", "tpu"], "unknown device 'tpu'; choose one of: auto, cpu, cuda"),
+        (["--example", "peaks9"], "unknown example 'peaks9'; choose one of peaks3, peaks5"),
+    ],
+)
+def test_unknown_names(tmp_path, monkeypatch, capsys, no_training, options, message):
+    monkeypatch.chdir(tmp_path)
+    argv = ["param"] + (options if options[0] == "--example" else ["--example", "peaks3"] + options)
+    _fails(capsys, argv, message)
+    assert _files(tmp_path) == set()
+
+
+def test_cuda_requested_without_cuda(tmp_path, monkeypatch, capsys, no_training):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    _fails(capsys, ["param", "--example", "peaks3", "--device", "cuda"],
+           "--device cuda requested but CUDA is not available")
+    assert _files(tmp_path) == set()
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--out", "{tmp}/missing/map.npz"], "output directory '{tmp}/missing' does not exist"),
+        (["--out", "{tmp}/map.txt"], "map.txt: output must have extension '.npz', got '.txt'"),
+        (["--out", "{tmp}/map"], "map: output must have extension '.npz', got none"),
+        (["--out-ply", "{tmp}/mapped.obj"], "mapped.obj: output must have extension '.ply', got '.obj'"),
+        (["--out-ply", "{tmp}/missing/mapped.ply"], "output directory '{tmp}/missing' does not exist"),
+        (["--plot", "{tmp}/map.jpg"], "map.jpg: output must have extension '.png', got '.jpg'"),
+        (["--plot", "{tmp}/missing/map.png"], "output directory '{tmp}/missing' does not exist"),
+    ],
+)
+def test_bad_output_path(tmp_path, monkeypatch, capsys, no_training, options, message):
+    monkeypatch.chdir(tmp_path)
+    options = [o.replace("{tmp}", str(tmp_path)) for o in options]
+    _fails(capsys, ["param", "--example", "peaks3", *options], message.replace("{tmp}", str(tmp_path)))
+    assert _files(tmp_path) == set()
+
+
+def test_output_is_a_directory(tmp_path, monkeypatch, capsys, no_training):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "taken.npz").mkdir()
+    _fails(capsys, ["param", "--example", "peaks3", "--out", "taken.npz"],
+           "taken.npz: is a directory, expected a file")
+
+
+def test_output_would_overwrite_input(tmp_path, monkeypatch, capsys, no_training):
+    V, F = _grid()
+    mesh = tmp_path / "mesh.ply"
+    write_ply_atomic(mesh, V, F)
+    before = mesh.read_bytes()
+    _fails(capsys, ["param", str(mesh), "--out-ply", str(mesh)],
+           "mesh.ply: --out-ply is the same file as INPUT")
+    assert mesh.read_bytes() == before
+    assert _files(tmp_path) == {"mesh.ply"}
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["param"], "give exactly one of INPUT or --example NAME"),
+        (["param", "x.ply", "--example", "peaks3"], "give exactly one of INPUT or --example NAME"),
+        (["param", "--example", "peaks3", "--seed", "-1"],
+         "argument --seed: expected a non-negative integer, got -1"),
+        (["param", "--example", "peaks3", "--seed", "one"],
+         "argument --seed: expected a non-negative integer, got 'one'"),
+        (["param", "--example", "peaks3", "--epochs=3"], "unrecognized arguments: --epochs=3"),
+        ([], "the following arguments are required: COMMAND"),
+        (["reconstruct"], "argument COMMAND: invalid choice: 'reconstruct'"),
+    ],
+)
+def test_usage_errors(tmp_path, monkeypatch, capsys, no_training, argv, message):
+    monkeypatch.chdir(tmp_path)
+    _fails(capsys, argv, message)
+    assert _files(tmp_path) == set()
+
+
+def test_help_has_examples(capsys):
+    assert cli.main(["--help"]) == 0
+    assert "pcgeom param --example peaks3 --out peaks3_uv.npz --plot peaks3_uv.png" in (
+        capsys.readouterr().out)
+    assert cli.main(["param", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "examples:" in out and "--resume" in out and "free, disk" in out
+    assert cli.main(["evaluate", "--help"]) == 0
+    assert "pcgeom evaluate mesh.ply mesh_uv.npz" in capsys.readouterr().out
+
+
+def test_interrupt_keeps_no_output(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "parametrize", interrupted)
+    assert cli.main(["param", "--example", "peaks3"]) == 130
+    err = capsys.readouterr().err
+    assert err == "pcgeom: error: interrupted (rerun with --resume to continue from the last " \
+                  "finished stage)\n"
+    assert _files(tmp_path) == set()
+
+
+# --------------------------------------------------------------------------- success
+
+
+def test_example_peaks3_writes_map(tmp_path, monkeypatch, capsys, tiny):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["param", "--example", "peaks3", "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""  # --quiet: no progress bars
+    assert _files(tmp_path) == {"peaks3_uv.npz"}  # default name in cwd; checkpoint removed
+
+    V, F = peaks_surface("peaks3")
+    with np.load(tmp_path / "peaks3_uv.npz", allow_pickle=False) as z:
+        assert sorted(z.files) == ["center", "config_json", "faces", "history_json",
+                                   "lambda_inv", "scale", "uv"]
+        uv, lam = z["uv"], z["lambda_inv"]
+        assert uv.shape == (len(V), 2) and uv.dtype == np.float64
+        assert np.isfinite(uv).all() and uv.std(axis=0).min() > 1e-3  # not collapsed
+        assert lam.shape == (len(V),) and (lam > 0).all()
+        np.testing.assert_allclose(z["center"], V.mean(axis=0))
+        assert z["scale"].shape == () and float(z["scale"]) > 0
+        np.testing.assert_array_equal(z["faces"], F)
+        assert json.loads(str(z["config_json"])) == _tiny("fast").to_dict()
+        history = json.loads(str(z["history_json"]))
+    assert [row["kind"] for row in history] == ["network", "refine"]
+    assert all(np.isfinite(row["total"]) for row in history)
+
+    lines = out.splitlines()
+    assert lines[0] == f"peaks3: {len(V)} points -> peaks3_uv.npz"
+    assert lines[1].startswith("preset fast, domain free, device cpu, seed 0: ")
+    assert lines[2].startswith("final loss: total ")
+    assert re.fullmatch(r"angle distortion: mean \d\.\d{4} rad over 11250 triangles, "
+                        r"\d+ flipped \(\d+\.\d\d%\)", lines[3])
+
+
+def test_mesh_input_json_ply_and_plot(tmp_path, capsys, tiny):
+    """A PLY with faces: --json reports the evaluation; the mapped PLY keeps the faces."""
+    V, F = _grid(12)
+    mesh = tmp_path / "mesh.ply"
+    write_ply_atomic(mesh, V, F)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    argv = ["param", str(mesh), "--domain", "disk", "--seed", "3", "--quiet", "--json",
+            "--out", str(out_dir / "m.npz"), "--out-ply", str(out_dir / "m.ply"),
+            "--plot", str(out_dir / "m.png")]
+    assert cli.main(argv) == 0
+    out, err = capsys.readouterr()
+    report = json.loads(out)  # exactly one JSON object on stdout
+    assert report["out"] == str(out_dir / "m.npz")
+    assert report["out_ply"] == str(out_dir / "m.ply")
+    assert report["plot"] == str(out_dir / "m.png")
+    assert report["n_points"] == len(V)
+    assert (report["domain"], report["preset"], report["device"], report["seed"]) == (
+        "disk", "fast", "cpu", 3)
+    assert report["seconds"] > 0
+    assert set(report["loss"]) == {"total", "leg", "hand"}  # no landmarks were given
+    assert _files(out_dir) == {"m.npz", "m.ply", "m.png"}
+
+    mapped = read_points(out_dir / "m.ply")
+    assert mapped.points.shape == (len(V), 3)
+    assert (mapped.points[:, 2] == 0).all()
+    np.testing.assert_array_equal(mapped.faces, F)
+    with np.load(out_dir / "m.npz") as z:
+        np.testing.assert_array_equal(mapped.points[:, :2], z["uv"])  # float64 round trip
+        expected = angle_distortion(V, F, z["uv"])
+    ev = report["evaluation"]
+    assert ev == {"mean_abs_angle_rad": expected.mean_abs, "flipped": expected.flipped,
+                  "n_faces": len(F)}
+    assert (out_dir / "m.png").read_bytes()[:8] == PNG_SIGNATURE
+
+
+def test_bare_cloud_has_no_evaluation(tmp_path, capsys, tiny):
+    V, _ = _grid()
+    src = _write_txt(tmp_path / "scan.txt", V)
+    assert cli.main(["param", str(src), "--quiet", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["evaluation"] is None
+    assert report["out"] == str(tmp_path / "scan_uv.npz")  # default: next to the input
+    with np.load(tmp_path / "scan_uv.npz") as z:
+        assert "faces" not in z.files
+
+
+def test_duplicate_points_give_one_row_per_input_row(tmp_path, capsys, tiny):
+    V, _ = _grid()
+    rows = np.concatenate([V, V[[5, 17, 5, 40]]])  # (68, 3): three extra copies of 5, one of 17/40
+    src = _write_txt(tmp_path / "dups.txt", rows)
+    out = tmp_path / "dups.npz"
+    assert cli.main(["param", str(src), "--quiet", "--out", str(out)]) == 0
+    with np.load(out) as z:
+        uv = z["uv"]
+    assert uv.shape == (len(rows), 2)
+    np.testing.assert_array_equal(uv[64], uv[5])
+    np.testing.assert_array_equal(uv[66], uv[5])
+    np.testing.assert_array_equal(uv[65], uv[17])
+    np.testing.assert_array_equal(uv[67], uv[40])
+
+
+def test_quiet_resume_and_checkpoint_are_passed_through(tmp_path, monkeypatch, capsys, tiny):
+    monkeypatch.chdir(tmp_path)
+    _write_txt(tmp_path / "scan.txt", _grid()[0])
+    calls = []
+
+    def spy(*args, **kwargs):
+        calls.append(kwargs)
+        return parametrize(*args, **kwargs)
+
+    monkeypatch.setattr(cli, "parametrize", spy)
+    assert cli.main(["param", "scan.txt", "--resume", "--quiet", "--out", "a.npz"]) == 0
+    (kw,) = calls
+    assert kw["checkpoint"] == Path("a.ckpt")
+    assert kw["resume"] is True and kw["progress"] is False
+    assert kw["seed"] == 0 and kw["device"] == torch.device("cpu")
+    assert _files(tmp_path) == {"scan.txt", "a.npz"}  # checkpoint removed after success
+
+
+def test_resume_from_foreign_checkpoint_is_an_error(tmp_path, capsys, tiny):
+    """A checkpoint made with another seed is refused (one line, exit 2) and kept."""
+    V, _ = _grid()
+    src = _write_txt(tmp_path / "scan.txt", V)
+    ckpt = tmp_path / "scan_uv.ckpt"
+    parametrize(V, None, config=_tiny("fast"), device="cpu", seed=1, checkpoint=ckpt,
+                progress=False)
+    assert ckpt.exists()
+    _fails(capsys, ["param", str(src), "--resume", "--quiet"],
+           "scan_uv.ckpt: checkpoint is from a different input, config or seed")
+    assert _files(tmp_path) == {"scan.txt", "scan_uv.ckpt"}
+
+
+# --------------------------------------------------------------------------- evaluate
+
+
+@pytest.fixture
+def mesh_and_map(tmp_path):
+    """A mesh file and a map file for it (LSCM-free: the grid's own x, y)."""
+    V, F = _grid()
+    mesh = tmp_path / "mesh.ply"
+    write_ply_atomic(mesh, V, F)
+    mapped = tmp_path / "map.npz"
+    np.savez(mapped, uv=V[:, :2] * 0.5, lambda_inv=np.ones(len(V)))
+    return V, F, mesh, mapped
+
+
+def test_evaluate(tmp_path, capsys, mesh_and_map):
+    V, F, mesh, mapped = mesh_and_map
+    expected = angle_distortion(V, F, V[:, :2] * 0.5)
+    assert cli.main(["evaluate", str(mesh), str(mapped), "--json",
+                     "--plot", str(tmp_path / "angles.png")]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["mean_abs_angle_rad"] == expected.mean_abs
+    assert report["flipped"] == expected.flipped == 0
+    assert report["n_faces"] == len(F) and report["n_points"] == len(V)
+    assert (tmp_path / "angles.png").read_bytes()[:8] == PNG_SIGNATURE
+
+    assert cli.main(["evaluate", str(mesh), str(mapped)]) == 0
+    out = capsys.readouterr().out
+    assert f"angle distortion: mean {expected.mean_abs:.4f} rad over {len(F)} triangles, " \
+           "0 flipped (0.00%)" in out
+
+
+def test_evaluate_errors(tmp_path, capsys, mesh_and_map):
+    V, F, mesh, mapped = mesh_and_map
+    bare = _write_txt(tmp_path / "bare.txt", V)
+    _fails(capsys, ["evaluate", str(bare), str(mapped)],
+           "bare.txt: has no faces; evaluation needs a triangle mesh")
+
+    short = tmp_path / "short.npz"
+    np.savez(short, uv=V[:-1, :2])
+    _fails(capsys, ["evaluate", str(mesh), str(short)],
+           f"short.npz: map has {len(V) - 1} rows but {mesh} has {len(V)} points")
+
+    no_uv = tmp_path / "no_uv.npz"
+    np.savez(no_uv, points=V)
+    _fails(capsys, ["evaluate", str(mesh), str(no_uv)], "no_uv.npz: no 'uv' array (found: points)")
+
+    flat = tmp_path / "flat.npz"
+    np.savez(flat, uv=V)
+    _fails(capsys, ["evaluate", str(mesh), str(flat)],
+           f"flat.npz: 'uv' must have shape (N, 2), got ({len(V)}, 3)")
+
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"not a zip")
+    _fails(capsys, ["evaluate", str(mesh), str(junk)], "junk.npz: cannot parse")
+
+    _fails(capsys, ["evaluate", str(mesh), str(tmp_path / "absent.npz")], "absent.npz: no such file")
+    _fails(capsys, ["evaluate", str(mesh), str(mesh)],
+           "mesh.ply: map must have extension '.npz', got '.ply'")
+    _fails(capsys, ["evaluate", str(mesh), str(mapped), "--plot", str(tmp_path / "a.pdf")],
+           "a.pdf: output must have extension '.png', got '.pdf'")
+    assert not (tmp_path / "a.pdf").exists()
