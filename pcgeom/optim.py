@@ -180,8 +180,8 @@ PRESETS: dict[str, ParamConfig] = {
         optimizer=OptimizerConfig(name="adam", lr=1e-3),
         param_net=NetConfig(width=128, depth=3, init="siren", w0=5.0),
         lambda_net=NetConfig(width=64, depth=2, init="siren", w0=5.0),
-        max_stages=3,
-        refine=RefineConfig(steps=1500),
+        max_stages=2,
+        refine=RefineConfig(steps=1000),
     ),
 }
 
@@ -530,10 +530,10 @@ def _refine(Xn_np, X, uv0, lam0, W, lm_points, lm_targets, config, gen, bars):
         terms = {"leg": leg_pairs(X, U, log_l.exp(), sigma, i, j)}
         total = beta.leg * terms["leg"]
         if W is not None:
-            b = min(rc.batch_domain, n)
-            idx = torch.randperm(n, generator=gen)[:b].to(dev)
+            # All points every step: HAND on a random subset would move only that
+            # subset's points and tear them from their neighbours.
             widx = torch.randperm(len(W), generator=gen)[: min(rc.batch_domain, len(W))].to(dev)
-            terms["hand"] = hand(U[idx], W[widx], rc.alpha)
+            terms["hand"] = hand(U, W[widx], rc.alpha)
             total = total + beta.domain * terms["hand"]
         if lm_index:
             terms["landmarks"] = landmark_hand([U[ix] for ix in lm_index], lm_targets, rc.alpha)
