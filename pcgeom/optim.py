@@ -397,7 +397,9 @@ def parametrize(
     ckpt = Path(checkpoint) if checkpoint is not None else None
     fingerprint = _fingerprint(P)
     if ckpt is not None and resume and ckpt.exists():
-        state = torch.load(ckpt, map_location=dev, weights_only=False)
+        # On the CPU: the RNG states must be CPU ByteTensors (set_state rejects CUDA ones);
+        # load_state_dict copies the weights and optimizer state onto ``dev``.
+        state = torch.load(ckpt, map_location="cpu", weights_only=False)
         if state["fingerprint"] != fingerprint or state["config"] != config.to_dict() or state["seed"] != seed:
             raise ValueError(f"{ckpt}: checkpoint is from a different input, config or seed; delete it to start over")
         f.load_state_dict(state["f"])
@@ -454,8 +456,9 @@ def _run_stage(stage, n_stages, X, W, lm_points, lm_targets, f, l, opt, config, 
     beta = config.weights
     n = len(X)
     P_all = torch.cat(lm_points) if lm_points else None
-    sums = {"leg": 0.0, "hand": 0.0, "landmarks": 0.0, "total": 0.0}
-    last = dict(sums)
+    # Only the terms this run computes, as in the refinement record: a 0.0 for an
+    # unused term would read as a perfect fit.
+    last: dict[str, float] = {}
     n_steps = 0
     bar = bars.bar(stage.epochs, f"stage {stage.index + 1}/{n_stages}")
     for epoch in range(stage.epochs):
@@ -471,7 +474,9 @@ def _run_stage(stage, n_stages, X, W, lm_points, lm_targets, f, l, opt, config, 
                 terms["hand"] = hand(yb[: stage.batch_points], W[widx], alpha)
                 total = total + beta.domain * terms["hand"]
             if P_all is not None:
-                terms["landmarks"] = landmark_hand([f(p) for p in lm_points], lm_targets, alpha)
+                # The landmarks' images are the tail of the LEG batch (eq. optim problem overall).
+                mapped = torch.split(yb[stage.batch_points :], [len(p) for p in lm_points])
+                terms["landmarks"] = landmark_hand(mapped, lm_targets, alpha)
                 total = total + beta.landmarks * terms["landmarks"]
             opt.zero_grad(set_to_none=True)
             total.backward()
