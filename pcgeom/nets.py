@@ -72,10 +72,30 @@ class SineMLP(nn.Module):
 
 
 class ParamNet(SineMLP):
-    """Parametrization net f: R^3 -> R^2, sine hidden layers, linear output."""
+    """Parametrization net f: R^3 -> R^2, sine hidden layers, linear output.
 
-    def __init__(self, config: NetConfig = NetConfig()) -> None:
+    With ``plane`` (a (2, 3) matrix, e.g. the cloud's two principal directions)
+    the net becomes ``f(x) = plane @ x + g(x)``, a trainable linear term plus the
+    sine MLP ``g`` whose output layer starts at zero: training starts from the
+    projection onto that plane, an unfolded map for any surface that is a graph
+    over it, instead of a random one.
+    """
+
+    def __init__(self, config: NetConfig = NetConfig(), plane: torch.Tensor | None = None) -> None:
         super().__init__(3, 2, config)
+        self.plane: nn.Linear | None = None
+        if plane is not None:
+            if tuple(plane.shape) != (2, 3):
+                raise ValueError(f"ParamNet plane: expected shape (2, 3), got {tuple(plane.shape)}")
+            self.plane = nn.Linear(3, 2, bias=False)
+            with torch.no_grad():
+                self.plane.weight.copy_(plane)
+                self.out.weight.zero_()
+                self.out.bias.zero_()
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        y = super().forward(x)
+        return y if self.plane is None else y + self.plane(x)
 
 
 class LambdaInvNet(nn.Module):

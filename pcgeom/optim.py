@@ -143,6 +143,10 @@ class ParamConfig:
     """|W|, the size of the sample of the parameter domain."""
     max_stages: int = 0
     """Stop Algorithm 1 after this many stages (0: run until B_X = |X|, as the paper)."""
+    init_map: str = "random"
+    """``"random"``: randomly initialized nets (paper, section 6); ``"plane"``: the
+    parametrization net starts as the projection onto the cloud's best-fit plane
+    (a trainable linear term, see :class:`pcgeom.nets.ParamNet`)."""
     refine: RefineConfig = RefineConfig()
     dtype: str = "float32"
     """Torch dtype of training, ``"float32"`` or ``"float64"``."""
@@ -160,6 +164,7 @@ class ParamConfig:
             lambda_net=NetConfig(**d["lambda_net"]),
             domain_samples=d["domain_samples"],
             max_stages=d["max_stages"],
+            init_map=d["init_map"],
             refine=RefineConfig(**d["refine"]),
             dtype=d["dtype"],
         )
@@ -170,9 +175,10 @@ PRESETS: dict[str, ParamConfig] = {
     # (0.001, 100, 1000), RMSprop(alpha 0.99, lr 1e-4, momentum 0.9), beta (5, 1, 1),
     # randomly initialized sine networks, all stages until the batch is the cloud.
     "paper": ParamConfig(),
-    # Everyday use: Adam at 1e-3 on SIREN-initialized nets for three short
-    # stages (sigma 0.5 -> 0.25, batches 1024 -> 4096) to get a smooth unfolded
-    # map, then the per-point refinement on local LEG pairs.
+    # Everyday use: Adam at 1e-3 on SIREN-initialized nets, the parametrization net
+    # starting from the best-fit-plane projection, for two short stages (sigma
+    # 0.5 -> 0.35, batches 1024 -> 2048) to get a smooth unfolded map, then the
+    # per-point refinement on local LEG pairs.
     "fast": ParamConfig(
         schedule=ScheduleConfig(
             epochs=120, sigma=0.5, alpha_initial=2.0, alpha_final=20.0, epochs_min=30
@@ -181,6 +187,7 @@ PRESETS: dict[str, ParamConfig] = {
         param_net=NetConfig(width=128, depth=3, init="siren", w0=5.0),
         lambda_net=NetConfig(width=64, depth=2, init="siren", w0=5.0),
         max_stages=2,
+        init_map="plane",
         refine=RefineConfig(steps=1000),
     ),
 }
@@ -278,6 +285,22 @@ def _make_optimizer(params, cfg: OptimizerConfig) -> torch.optim.Optimizer:
     if cfg.name == "adam":
         return torch.optim.Adam(params, lr=cfg.lr)
     raise ValueError(f"unknown optimizer {cfg.name!r}; choose one of: rmsprop, adam")
+
+
+def _initial_plane(Xn: np.ndarray, init_map: str, W: torch.Tensor | None) -> torch.Tensor | None:
+    """The (2, 3) linear term of the parametrization net for ``init_map``, or None."""
+    if init_map == "random":
+        return None
+    if init_map != "plane":
+        raise ValueError(f"unknown init_map {init_map!r}; choose one of: random, plane")
+    _, _, vt = np.linalg.svd(Xn - Xn.mean(axis=0), full_matrices=False)
+    plane = vt[:2]  # (2, 3): the two principal directions
+    if W is not None:
+        # Scale the projected cloud to the domain sample's extent.
+        extent = np.linalg.norm(Xn @ plane.T, axis=1).max()
+        reach = np.linalg.norm(W.cpu().double().numpy(), axis=1).max()
+        plane = plane * (reach / extent)
+    return torch.tensor(plane, dtype=torch.float32)
 
 
 def _fingerprint(points: np.ndarray) -> str:
@@ -389,7 +412,7 @@ def parametrize(
 
     torch.manual_seed(seed)
     gen = torch.Generator(device="cpu").manual_seed(seed)
-    f = ParamNet(config.param_net).to(dev, dtype)
+    f = ParamNet(config.param_net, plane=_initial_plane(Xn_np, config.init_map, W)).to(dev, dtype)
     l = LambdaInvNet(config.lambda_net).to(dev, dtype)
     opt = _make_optimizer(list(f.parameters()) + list(l.parameters()), config.optimizer)
     history: list[dict] = []

@@ -153,3 +153,22 @@ def test_forward_is_differentiable_in_the_weights():
         return functional_call(net, dict(zip(names, ps)), (x,))
 
     assert torch.autograd.gradcheck(f, params)
+
+
+# --------------------------------------------------------------------------- plane term
+
+
+def test_param_net_with_a_plane_starts_as_that_projection_and_trains_both_parts():
+    torch.manual_seed(0)
+    plane = torch.tensor([[1.0, 0.0, 0.0], [0.0, 0.6, 0.8]])
+    net = ParamNet(NetConfig(width=16, depth=2), plane=plane)
+    x = torch.randn(50, 3)
+    torch.testing.assert_close(net(x), x @ plane.T)
+    net(x).pow(2).sum().backward()
+    assert net.plane.weight.grad.abs().sum() > 0
+    assert net.out.weight.grad.abs().sum() > 0  # the sine part leaves zero at once
+
+
+def test_param_net_rejects_a_plane_of_the_wrong_shape():
+    with pytest.raises(ValueError, match=r"expected shape \(2, 3\), got \(3, 3\)"):
+        ParamNet(NetConfig(width=4, depth=1), plane=torch.eye(3))

@@ -534,3 +534,20 @@ def test_checkpoint_resume_on_cuda(tmp_path, monkeypatch, peaks):
     resumed = parametrize(V, Disk(), checkpoint=ckpt, resume=True, **run)
     assert calls == [1]
     assert np.isfinite(resumed.uv).all()
+
+
+def test_plane_init_starts_from_the_best_fit_plane_projection_and_unknown_init_is_rejected():
+    from pcgeom.optim import _initial_plane
+
+    rng = np.random.default_rng(0)
+    # A flat cloud in a tilted plane: the plane term must span that plane.
+    basis = np.linalg.qr(rng.normal(size=(3, 3)))[0][:, :2]  # (3, 2) orthonormal
+    X = rng.uniform(-1, 1, size=(200, 2)) @ basis.T
+    plane = _initial_plane(X, "plane", None).double().numpy()
+    assert plane.shape == (2, 3)
+    np.testing.assert_allclose(plane @ plane.T, np.eye(2), atol=1e-6)
+    np.testing.assert_allclose(np.abs(np.linalg.svd(plane @ basis)[1]), [1.0, 1.0], atol=1e-6)
+    assert _initial_plane(X, "random", None) is None
+    assert optim.get_preset("paper").init_map == "random"  # section 6: random initialization
+    with pytest.raises(ValueError, match="unknown init_map 'pca'; choose one of: random, plane"):
+        _initial_plane(X, "pca", None)
