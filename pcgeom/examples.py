@@ -37,7 +37,7 @@ def peaks_surface(name: str = "peaks3", n_side: int = 76) -> tuple[np.ndarray, n
         Reference triangulation, used only to evaluate distortion.
     """
     if name not in _BUMPS:
-        raise ValueError(f"unknown example {name!r}; choose one of {', '.join(EXAMPLES)}")
+        raise ValueError(f"unknown example {name!r}; choose one of: {', '.join(EXAMPLES)}")
     t = np.linspace(-1.0, 1.0, n_side)
     x, y = np.meshgrid(t, t, indexing="xy")
     z = np.zeros_like(x)

@@ -140,7 +140,7 @@ def test_bad_input_file(tmp_path, monkeypatch, capsys, no_training, case):
         (["--domain", "square"], "unknown domain 'square'; choose one of: free, disk"),
         (["--preset", "slow"], "unknown preset 'slow'; choose one of: paper, fast"),
         (["--device", "tpu"], "unknown device 'tpu'; choose one of: auto, cpu, cuda"),
-        (["--example", "peaks9"], "unknown example 'peaks9'; choose one of peaks3, peaks5"),
+        (["--example", "peaks9"], "unknown example 'peaks9'; choose one of: peaks3, peaks5"),
     ],
 )
 def test_unknown_names(tmp_path, monkeypatch, capsys, no_training, options, message):
