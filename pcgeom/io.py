@@ -20,6 +20,7 @@ from typing import BinaryIO
 import numpy as np
 
 __all__ = [
+    "write_atomic",
     "InputError",
     "PointCloud",
     "SUPPORTED_EXTENSIONS",
@@ -427,13 +428,14 @@ def check_writable(path, ext: str) -> Path:
     return path
 
 
-def _write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> None:
+def write_atomic(path, write: Callable[[BinaryIO], None]) -> None:
     """Run ``write(f)`` on a temporary file beside ``path``, then rename it over ``path``.
 
     The temporary file is created with ``os.open(..., 0o666)`` so the result gets the usual
     umask-derived permissions (``tempfile`` would leave it at 0600). On any exception the
     temporary file is removed and an existing ``path`` is left untouched.
     """
+    path = Path(path)
     tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
@@ -461,7 +463,7 @@ def save_npz_atomic(path, **arrays) -> None:
         Arrays stored under their keyword names.
     """
     path = check_writable(path, "npz")
-    _write_atomic(path, lambda f: np.savez_compressed(f, **arrays))
+    write_atomic(path, lambda f: np.savez_compressed(f, **arrays))
 
 
 def _write_ply(f: BinaryIO, V: np.ndarray, F: np.ndarray | None) -> None:
@@ -521,4 +523,4 @@ def write_ply_atomic(path, vertices, faces=None) -> None:
             raise ValueError(
                 f"faces: indices {F.min()}..{F.max()} out of range for {len(V)} vertices"
             )
-    _write_atomic(path, lambda f: _write_ply(f, V, F))
+    write_atomic(path, lambda f: _write_ply(f, V, F))

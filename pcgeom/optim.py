@@ -15,10 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import math
-import os
-import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -28,7 +25,7 @@ import numpy as np
 import torch
 
 from .domains import Domain
-from .io import deduplicate, normalize
+from .io import deduplicate, normalize, write_atomic
 from .losses import hand, landmark_hand, leg, leg_pairs
 from .nets import LambdaInvNet, NetConfig, ParamNet
 
@@ -308,14 +305,7 @@ def _fingerprint(points: np.ndarray) -> str:
 
 
 def _save_checkpoint(path: Path, state: dict) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        torch.save(state, tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, lambda f: torch.save(state, f))
 
 
 def _prepare_landmarks(landmarks, Xn_center, scale, device, dtype):

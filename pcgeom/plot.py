@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import math
 import os
-import secrets
 from pathlib import Path
 
 import numpy as np
+
+from .io import write_atomic
 
 __all__ = ["plot_map", "plot_history", "plot_angle_histogram"]
 
@@ -41,17 +42,8 @@ def _save_png_atomic(fig, path) -> Path:
     if path.suffix.lower() != ".png":
         got = repr(path.suffix) if path.suffix else "none"
         raise ValueError(f"path: {os.fspath(path)}: expected extension '.png', got {got}")
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
-    try:
-        # format= is required: the temporary name does not end in .png.
-        fig.savefig(tmp, format="png")
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    # format= is required: the file object has no name to infer it from.
+    write_atomic(path, lambda f: fig.savefig(f, format="png"))
     return path
 
 

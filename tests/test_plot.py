@@ -128,8 +128,7 @@ def test_failed_render_leaves_no_temp_file(tmp_path, monkeypatch):
     path.write_bytes(b"old")
 
     def broken_savefig(self, fname, **kwargs):
-        with open(fname, "wb") as f:
-            f.write(b"partial")
+        fname.write(b"partial")  # a file object: the temporary file beside path
         raise RuntimeError("disk full")
 
     monkeypatch.setattr(Figure, "savefig", broken_savefig)
