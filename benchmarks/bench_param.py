@@ -485,19 +485,19 @@ def render(results: list[SurfaceResult], env: dict, args, command: str, date: st
     return "\n".join(L)
 
 
-def write_atomic(path: Path, text: str) -> None:
+def write_text(path: Path, text: str, keep_section: bool = False) -> None:
+    """Write ``text`` atomically; with ``keep_section``, carry over the section that
+    ``bench_schedules.py`` keeps in the same file between its markers."""
+    from bench_schedules import BEGIN, END
+
+    from pcgeom.io import write_atomic
+
+    if keep_section and path.exists():
+        old = path.read_text(encoding="utf-8")
+        if BEGIN in old and END in old:
+            text = text.rstrip("\n") + "\n\n" + old[old.index(BEGIN): old.index(END) + len(END)] + "\n"
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the usual file mode
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, lambda fh: fh.write(text.encode("utf-8")))
 
 
 # --------------------------------------------------------------------------- main
@@ -598,7 +598,7 @@ def main(argv: list[str] | None = None) -> int:
 
     env["load_average_end"] = _loadavg()
     text = render(results, env, args, command, date, startup, skipped)
-    write_atomic(args.out, text)
+    write_text(args.out, text, keep_section=True)
     log(f"wrote {args.out}")
     if args.json is not None:
         payload = {
@@ -613,7 +613,7 @@ def main(argv: list[str] | None = None) -> int:
                 for s in results
             ],
         }
-        write_atomic(args.json, json.dumps(payload, indent=1) + "\n")
+        write_text(args.json, json.dumps(payload, indent=1) + "\n")
         log(f"wrote {args.json}")
     print(text)
     return 0

@@ -17,7 +17,7 @@ import dataclasses
 import hashlib
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -353,6 +353,7 @@ def parametrize(
     checkpoint: str | Path | None = None,
     resume: bool = False,
     progress: bool = True,
+    on_stage: Callable[[dict, np.ndarray], None] | None = None,
 ) -> ParamResult:
     """Parametrize a point cloud onto ``domain`` (free boundary when None).
 
@@ -378,6 +379,10 @@ def parametrize(
         Written after every stage; with ``resume=True`` a run continues from it.
     progress : bool
         tqdm bars on stderr.
+    on_stage : callable, optional
+        Called after every stage (and the refinement) with the stage's history
+        record and the current map, (N, 2) float64 in the input's row order: for
+        per-stage curves of quality measures the optimizer does not know about.
 
     Returns
     -------
@@ -427,6 +432,9 @@ def parametrize(
     for stage in stages[start_stage:]:
         record = _run_stage(stage, len(stages), X, W, lm_points, lm_targets, f, l, opt, config, gen, bars)
         history.append(record)
+        if on_stage is not None:
+            with torch.no_grad():
+                on_stage(record, f(X).cpu().double().numpy()[inverse])
         if ckpt is not None:
             _save_checkpoint(
                 ckpt,
@@ -450,6 +458,8 @@ def parametrize(
     if config.refine.steps > 0:
         uv, lam, record = _refine(Xn_np, X, uv, lam, W, lm_points, lm_targets, config, gen, bars)
         history.append(record)
+        if on_stage is not None:
+            on_stage(record, uv.cpu().double().numpy()[inverse])
     uv_np = uv.detach().cpu().double().numpy()[inverse]
     lam_np = lam.detach().cpu().double().numpy()[inverse]
     return ParamResult(

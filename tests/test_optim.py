@@ -551,3 +551,17 @@ def test_plane_init_starts_from_the_best_fit_plane_projection_and_unknown_init_i
     assert optim.get_preset("paper").init_map == "random"  # section 6: random initialization
     with pytest.raises(ValueError, match="unknown init_map 'pca'; choose one of: random, plane"):
         _initial_plane(X, "pca", None)
+
+
+def test_on_stage_sees_every_stage_and_the_final_map():
+    V, _ = peaks_surface("peaks3", n_side=12)
+    cfg = get_preset("fast", max_stages=2, refine=RefineConfig(steps=5))
+    cfg = dataclasses.replace(
+        cfg, schedule=dataclasses.replace(cfg.schedule, epochs=2, epochs_min=1, batch_points=32)
+    )
+    seen = []
+    res = optim.parametrize(V, config=cfg, progress=False, on_stage=lambda r, uv: seen.append((r, uv)))
+    assert [r["stage"] for r, _ in seen] == [1, 2, "refine"]
+    assert all(uv.shape == (len(V), 2) for _, uv in seen)
+    np.testing.assert_array_equal(seen[-1][1], res.uv)
+    assert not np.allclose(seen[0][1], seen[1][1])  # the map moves between stages
