@@ -94,7 +94,7 @@ def main(argv=None) -> int:
         f"{os.cpu_count()} cores, torch {torch.__version__} ({torch.get_num_threads()} threads); "
         f"one process, one after the other, seed {args.seed}",
         f"- command: `python benchmarks/bench_schedules.py "
-        f"{' '.join(argv if argv is not None else sys.argv[1:])}`",
+        f"{' '.join(argv if argv is not None else sys.argv[1:])}".rstrip() + "`",
         f"- surface: {args.surface} ({len(V)} points, free boundary); angle distortion on its "
         f"{len(F)} reference triangles after each stage",
         f"- `paper`: section 6 exactly but every epoch count times {args.epoch_fraction} "

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from pcgeom import __version__
-from pcgeom.apps.evaluate import angle_distortion
+from pcgeom.apps.evaluate import angle_distortion, domain_hausdorff
 from pcgeom.domains import DOMAINS, get_domain
 from pcgeom.examples import EXAMPLES, load_example
 from pcgeom.io import (
@@ -251,6 +251,7 @@ def _cmd_param(args) -> int:
         "seconds": float(result.seconds),
         "loss": {k: float(final[k]) for k in LOSS_TERMS if k in final},
         "evaluation": evaluation,
+        "domain_hausdorff": domain_hausdorff(result.uv, domain) if domain is not None else None,
     }
     if args.json:
         print(json.dumps(summary))
@@ -260,6 +261,9 @@ def _cmd_param(args) -> int:
     print(f"preset {args.preset}, domain {args.domain}, device {summary['device']}, "
           f"seed {args.seed}: {summary['seconds']:.1f} s")
     print("final loss: " + ", ".join(f"{k} {v:.4g}" for k, v in summary["loss"].items()))
+    if summary["domain_hausdorff"] is not None:
+        print(f"Hausdorff distance of the map to the {args.domain} domain: "
+              f"{summary['domain_hausdorff']:.4f}")
     if evaluation is not None:
         _print_angles(evaluation)
     return EXIT_OK

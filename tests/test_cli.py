@@ -15,7 +15,8 @@ import pytest
 import torch
 
 from pcgeom import cli
-from pcgeom.apps.evaluate import angle_distortion
+from pcgeom.apps.evaluate import angle_distortion, domain_hausdorff
+from pcgeom.domains import Disk
 from pcgeom.examples import peaks_surface
 from pcgeom.io import read_points, write_ply_atomic
 from pcgeom.nets import NetConfig
@@ -296,6 +297,8 @@ def test_mesh_input_json_ply_and_plot(tmp_path, capsys, tiny):
     assert report["seconds"] > 0
     assert set(report["loss"]) == {"total", "leg", "hand"}  # no landmarks were given
     assert _files(out_dir) == {"m.npz", "m.ply", "m.png"}
+    with np.load(out_dir / "m.npz") as z:
+        assert report["domain_hausdorff"] == domain_hausdorff(z["uv"], Disk())
 
     mapped = read_points(out_dir / "m.ply")
     assert mapped.points.shape == (len(V), 3)
@@ -316,6 +319,7 @@ def test_bare_cloud_has_no_evaluation(tmp_path, capsys, tiny):
     assert cli.main(["param", str(src), "--quiet", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["evaluation"] is None
+    assert report["domain_hausdorff"] is None  # free boundary: no domain to fit
     assert report["out"] == str(tmp_path / "scan_uv.npz")  # default: next to the input
     with np.load(tmp_path / "scan_uv.npz") as z:
         assert "faces" not in z.files
