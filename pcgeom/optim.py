@@ -105,7 +105,8 @@ class RefineConfig:
     each point's image ``y_i`` and ``l_i`` directly, starting from the networks'
     values, on LEG restricted to each point's ``neighbours`` nearest neighbours
     with ``sigma = sigma_spacing * h`` (``h``: mean nearest-neighbour distance),
-    plus HAND on random batches when a domain is given. A kernel a few spacings
+    plus HAND of all points against a random batch of the domain sample when a
+    domain is given. A kernel a few spacings
     wide keeps pairs at distances of order sigma, where LEG's signal is.
     """
 
@@ -120,7 +121,7 @@ class RefineConfig:
     lr_lambda: float = 2e-3
     """Adam step on log l_i."""
     batch_domain: int = 1024
-    """Points and domain samples per HAND evaluation during refinement."""
+    """Domain samples per HAND evaluation during refinement (against all points)."""
     alpha: float = 100.0
     """HAND sharpness during refinement."""
 
@@ -505,9 +506,9 @@ def _run_stage(stage, n_stages, X, W, lm_points, lm_targets, f, l, opt, config, 
             total.backward()
             opt.step()
             terms["total"] = total
-            for k, v in terms.items():
-                last[k] = float(v.detach())
             n_steps += 1
+        # Reading a loss value synchronizes a GPU: once per epoch, the last step's terms.
+        last = {k: float(v.detach()) for k, v in terms.items()}
         if bar is not None:
             bar.update(1)
             bar.set_postfix({k: f"{v:.3g}" for k, v in last.items() if k in terms} | {"alpha": f"{alpha:.3g}"})
@@ -570,7 +571,9 @@ def _refine(Xn_np, X, uv0, lam0, W, lm_points, lm_targets, config, gen, bars):
         total.backward()
         opt.step()
         terms["total"] = total
-        last = {key: float(v.detach()) for key, v in terms.items()}
+        # Reading a loss value synchronizes a GPU: only for the bar and the record.
+        if step == rc.steps - 1 or (bar is not None and step % 50 == 0):
+            last = {key: float(v.detach()) for key, v in terms.items()}
         if bar is not None:
             bar.update(1)
             if step % 50 == 0:
