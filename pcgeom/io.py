@@ -20,7 +20,6 @@ from typing import BinaryIO
 import numpy as np
 
 __all__ = [
-    "write_atomic",
     "InputError",
     "PointCloud",
     "SUPPORTED_EXTENSIONS",
@@ -29,6 +28,7 @@ __all__ = [
     "deduplicate",
     "normalize",
     "check_writable",
+    "write_atomic",
     "save_npz_atomic",
     "write_ply_atomic",
 ]

@@ -25,7 +25,7 @@ import numpy as np
 import torch
 
 from .domains import Domain
-from .io import deduplicate, normalize, write_atomic
+from .io import deduplicate, normalize, validate_points, write_atomic
 from .losses import hand, landmark_hand, leg, leg_pairs
 from .nets import LambdaInvNet, NetConfig, ParamNet
 
@@ -364,8 +364,9 @@ def parametrize(
     Parameters
     ----------
     points : (N, 3) float
-        The cloud (validated with :func:`pcgeom.io.validate_points`). Duplicate
-        points are trained once and get the same output row.
+        The cloud; checked with :func:`pcgeom.io.validate_points` before any work
+        (:class:`pcgeom.io.InputError` on bad input). Duplicate points are trained
+        once and get the same output row.
     domain : Domain or None
         Parameter domain; None for the free-boundary map (LEG only).
     config : ParamConfig
@@ -393,7 +394,7 @@ def parametrize(
     config = config if config is not None else get_preset("fast")
     dev = device if isinstance(device, torch.device) else resolve_device(device)
     dtype = {"float32": torch.float32, "float64": torch.float64}[config.dtype]
-    P = np.asarray(points, dtype=np.float64)
+    P = validate_points(points)
     unique, inverse = deduplicate(P)
     Xn_np, center, scale = normalize(unique)
     n = len(Xn_np)
@@ -511,7 +512,7 @@ def _run_stage(stage, n_stages, X, W, lm_points, lm_targets, f, l, opt, config, 
         last = {k: float(v.detach()) for k, v in terms.items()}
         if bar is not None:
             bar.update(1)
-            bar.set_postfix({k: f"{v:.3g}" for k, v in last.items() if k in terms} | {"alpha": f"{alpha:.3g}"})
+            bar.set_postfix({k: f"{v:.3g}" for k, v in last.items()} | {"alpha": f"{alpha:.3g}"})
     if bar is not None:
         bar.close()
     return {

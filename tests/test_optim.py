@@ -565,3 +565,19 @@ def test_on_stage_sees_every_stage_and_the_final_map():
     assert all(uv.shape == (len(V), 2) for _, uv in seen)
     np.testing.assert_array_equal(seen[-1][1], res.uv)
     assert not np.allclose(seen[0][1], seen[1][1])  # the map moves between stages
+
+
+@pytest.mark.parametrize(
+    ("points", "message"),
+    [
+        (np.ones((20, 3)), "points: all 20 points coincide"),
+        (np.zeros((5, 3)) + np.arange(5)[:, None], "points: 5 points, need at least 10"),
+        (np.full((12, 2), 1.0), r"points: expected shape \(N, 3\), got \(12, 2\)"),
+    ],
+)
+def test_parametrize_rejects_bad_points_before_any_work(points, message, monkeypatch):
+    from pcgeom.io import InputError
+
+    monkeypatch.setattr(optim, "_run_stage", lambda *a, **k: pytest.fail("training started"))
+    with pytest.raises(InputError, match=message):
+        parametrize(points, progress=False)
