@@ -7,8 +7,9 @@ in the ``fast`` preset only, refine the per-point map on local LEG pairs.
 
 Normalization: the cloud is translated so its centroid is at the origin and
 scaled so the farthest point is at distance 1 (``X_n = (X - center) / scale``).
-Sigma and alpha are in these units, and the returned map is ``f(X_n)``; the
-transform ``center, scale`` is returned with it.
+Sigma and alpha are in these units, and the returned map is that of ``X_n``
+(``f(X_n)``, refined when the preset refines); the transform ``center, scale``
+is returned with it.
 """
 
 from __future__ import annotations
