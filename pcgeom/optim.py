@@ -295,7 +295,8 @@ def _initial_plane(Xn: np.ndarray, init_map: str, W: torch.Tensor | None) -> tor
     _, _, vt = np.linalg.svd(Xn - Xn.mean(axis=0), full_matrices=False)
     plane = vt[:2]  # (2, 3): the two principal directions
     if W is not None:
-        # Scale the projected cloud to the domain sample's extent.
+        # Scale the projected cloud to the domain sample's extent. The projection is
+        # centred at the origin, as the registered domains are; HAND moves it otherwise.
         extent = np.linalg.norm(Xn @ plane.T, axis=1).max()
         reach = np.linalg.norm(W.cpu().double().numpy(), axis=1).max()
         plane = plane * (reach / extent)
@@ -310,7 +311,7 @@ def _save_checkpoint(path: Path, state: dict) -> None:
     write_atomic(path, lambda f: torch.save(state, f))
 
 
-def _prepare_landmarks(landmarks, Xn_center, scale, device, dtype):
+def _prepare_landmarks(landmarks, center, scale, device, dtype):
     """Normalize landmark points like the cloud; targets stay in domain units."""
     pts, tgts = [], []
     for k, (p, q) in enumerate(landmarks):
@@ -322,7 +323,7 @@ def _prepare_landmarks(landmarks, Xn_center, scale, device, dtype):
             raise ValueError(f"landmark target {k}: expected points of shape (m, 2), got {q.shape}")
         if not (np.isfinite(p).all() and np.isfinite(q).all()):
             raise ValueError(f"landmark pair {k}: contains NaN or inf")
-        pts.append(torch.tensor((p - Xn_center) / scale, device=device, dtype=dtype))
+        pts.append(torch.tensor((p - center) / scale, device=device, dtype=dtype))
         tgts.append(torch.tensor(q, device=device, dtype=dtype))
     return pts, tgts
 
