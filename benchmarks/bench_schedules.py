@@ -22,39 +22,51 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from pcgeom.apps.evaluate import angle_distortion  # noqa: E402
+import torch  # noqa: E402
+
+from pcgeom.apps.evaluate import map_report  # noqa: E402
+from pcgeom.config import get_preset  # noqa: E402
 from pcgeom.examples import EXAMPLES, load_example  # noqa: E402
 from pcgeom.io import write_atomic  # noqa: E402
-from pcgeom.optim import get_preset, parametrize  # noqa: E402
+from pcgeom.train import parametrize, resolve_device  # noqa: E402
 
 BEGIN = "<!-- bench_schedules: begin -->"
 END = "<!-- bench_schedules: end -->"
 
 
-def run(name: str, config, V, F, seed: int) -> list[dict]:
-    """Per-stage rows: schedule values, cumulative seconds, angle distortion, flips."""
+def schedules_section(text: str) -> str | None:
+    """The part of ``text`` from BEGIN to END, markers included; None without them."""
+    if BEGIN in text and END in text:
+        return text[text.index(BEGIN): text.index(END) + len(END)]
+    return None
+
+
+def run(name: str, config, V, F, device, seed: int) -> list[dict]:
+    """Per-stage rows: the stage's history record, cumulative seconds, and map_report."""
     rows: list[dict] = []
     t0 = time.perf_counter()
 
     def on_stage(record: dict, uv) -> None:
         elapsed = time.perf_counter() - t0
-        rep = angle_distortion(V, F, uv)
-        rows.append({**record, "elapsed": elapsed, "angle": rep.mean_abs, "flips": rep.flipped})
-        print(f"{name} stage {record['stage']}: {elapsed:.0f} s, {rep.mean_abs:.4f} rad, "
-              f"{rep.flipped} flips", file=sys.stderr, flush=True)
+        report = map_report(uv, V=V, F=F)
+        rows.append({**record, **report, "elapsed": elapsed})
+        print(f"{name} stage {record['stage']}: {elapsed:.0f} s, "
+              f"{report['mean_abs_angle_rad']:.4f} rad, {report['flipped']} flips",
+              file=sys.stderr, flush=True)
 
-    parametrize(V, None, config=config, seed=seed, progress=False, on_stage=on_stage)
+    parametrize(V, "free", config=config, device=device, seed=seed, progress=False,
+                on_stage=on_stage)
     return rows
 
 
-def table(rows: list[dict], n_faces: int) -> list[str]:
+def table(rows: list[dict]) -> list[str]:
     out = ["| stage | epochs | batch | sigma | steps | cumulative s | mean abs angle, rad | flips |",
            "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         sigma = f"{r['sigma']:.3g}"
         out.append(f"| {r['stage']} | {r['epochs']} | {r['batch_points']} | {sigma} | {r['steps']} "
-                   f"| {r['elapsed']:.0f} | {r['angle']:.4f} | {r['flips']} "
-                   f"({100 * r['flips'] / n_faces:.2f}%) |")
+                   f"| {r['elapsed']:.0f} | {r['mean_abs_angle_rad']:.4f} | {r['flipped']} "
+                   f"({r['flipped_percent']:.2f}%) |")
     return out
 
 
@@ -71,28 +83,23 @@ def main(argv=None) -> int:
         parser.error(f"--epoch-fraction must be in (0, 1], got {args.epoch_fraction}")
 
     V, F = load_example(args.surface)
-    paper = get_preset("paper")
-    sch = paper.schedule
-    scaled = dataclasses.replace(
-        paper,
-        schedule=dataclasses.replace(
-            sch,
-            epochs=max(1, round(sch.epochs * args.epoch_fraction)),
-            epochs_min=max(1, round(sch.epochs_min * args.epoch_fraction)),
-        ),
-    )
-    fast_rows = run("fast", get_preset("fast"), V, F, args.seed)
-    paper_rows = run("paper", scaled, V, F, args.seed)
+    device = resolve_device("auto")
+    schedule = get_preset("paper").schedule
+    scaled = get_preset("paper", schedule=dataclasses.replace(
+        schedule,
+        epochs=max(1, round(schedule.epochs * args.epoch_fraction)),
+        epochs_min=max(1, round(schedule.epochs_min * args.epoch_fraction)),
+    ))
+    fast_rows = run("fast", get_preset("fast"), V, F, device, args.seed)
+    paper_rows = run("paper", scaled, V, F, device, args.seed)
 
-    import torch
-
-    section = [
+    lines = [
         BEGIN,
         "## The paper's schedule against `fast`, stage by stage",
         "",
         f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC; "
-        f"{os.cpu_count()} cores, torch {torch.__version__} ({torch.get_num_threads()} threads); "
-        f"one process, one after the other, seed {args.seed}",
+        f"{os.cpu_count()} cores, torch {torch.__version__} ({torch.get_num_threads()} threads), "
+        f"device {device}; one process, one after the other, seed {args.seed}",
         f"- command: `python benchmarks/bench_schedules.py "
         f"{' '.join(argv if argv is not None else sys.argv[1:])}".rstrip() + "`",
         f"- surface: {args.surface} ({len(V)} points, free boundary); angle distortion on its "
@@ -103,24 +110,23 @@ def main(argv=None) -> int:
         "",
         "`fast`:",
         "",
-        *table(fast_rows, len(F)),
+        *table(fast_rows),
         "",
         f"`paper` at {args.epoch_fraction:g} of its epochs:",
         "",
-        *table(paper_rows, len(F)),
+        *table(paper_rows),
         "",
         f"Time to the final map, same run: `fast` {fast_rows[-1]['elapsed']:.0f} s, "
         f"`paper` x {args.epoch_fraction:g} {paper_rows[-1]['elapsed']:.0f} s "
         f"(ratio {paper_rows[-1]['elapsed'] / fast_rows[-1]['elapsed']:.1f}).",
         END,
     ]
-    text = args.out.read_text() if args.out.exists() else "# Benchmarks\n"
-    if BEGIN in text and END in text:
-        text = text[: text.index(BEGIN)] + "\n".join(section) + text[text.index(END) + len(END):]
-    else:
-        text = text.rstrip("\n") + "\n\n" + "\n".join(section) + "\n"
-    write_atomic(args.out, lambda f: f.write(text.encode()))
-    print("\n".join(section))
+    section = "\n".join(lines)
+    text = args.out.read_text(encoding="utf-8") if args.out.exists() else "# Benchmarks\n"
+    old = schedules_section(text)
+    text = text.replace(old, section) if old else text.rstrip("\n") + "\n\n" + section + "\n"
+    write_atomic(args.out, lambda f: f.write(text.encode("utf-8")))
+    print(section)
     return 0
 
 

@@ -3,35 +3,13 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import torch
 from torch import nn
 
-__all__ = ["NetConfig", "SineMLP", "ParamNet", "LambdaInvNet", "DeformNet"]
+from .config import NetConfig
 
-
-@dataclass(frozen=True)
-class NetConfig:
-    """Architecture and initialization of one sine-activated MLP."""
-
-    width: int = 128
-    """Hidden units per layer (paper, Figure "neural net arch": fully connected)."""
-    depth: int = 3
-    """Number of hidden (sine) layers."""
-    init: str = "siren"
-    """``"siren"``: Sitzmann et al.'s initialization with frequency ``w0``;
-    ``"default"``: PyTorch's default Linear initialization and plain ``sin``,
-    which is what the paper's "randomly initialized" networks use."""
-    w0: float = 5.0
-    """SIREN frequency of the first layer (``sin(w0 * (W x + b))``) on inputs in
-    the unit ball; 5 reproduced a fine map best in our measurements (DESIGN.md)."""
-
-    def __post_init__(self) -> None:
-        if self.init not in ("siren", "default"):
-            raise ValueError(f"NetConfig.init must be 'siren' or 'default', got {self.init!r}")
-        if self.width < 1 or self.depth < 1:
-            raise ValueError(f"NetConfig width and depth must be >= 1, got {self.width}, {self.depth}")
+__all__ = ["SineMLP", "ParamNet", "LambdaInvNet", "DeformNet"]
 
 
 class SineMLP(nn.Module):
@@ -76,12 +54,18 @@ class ParamNet(SineMLP):
 
     With ``plane`` (a (2, 3) matrix, e.g. the cloud's two principal directions)
     the net becomes ``f(x) = plane @ x + g(x)``, a trainable linear term plus the
-    sine MLP ``g`` whose output layer starts at zero: training starts from the
-    projection onto that plane, an unfolded map for any surface that is a graph
-    over it, instead of a random one.
+    sine MLP ``g`` whose output layer starts at the constant ``offset`` (the
+    domain's centroid; zero by default): training starts from the projection onto
+    that plane, an unfolded map for any surface that is a graph over it, instead
+    of a random one.
     """
 
-    def __init__(self, config: NetConfig = NetConfig(), plane: torch.Tensor | None = None) -> None:
+    def __init__(
+        self,
+        config: NetConfig = NetConfig(),
+        plane: torch.Tensor | None = None,
+        offset: torch.Tensor | None = None,
+    ) -> None:
         super().__init__(3, 2, config)
         self.plane: nn.Linear | None = None
         if plane is not None:
@@ -92,6 +76,8 @@ class ParamNet(SineMLP):
                 self.plane.weight.copy_(plane)
                 self.out.weight.zero_()
                 self.out.bias.zero_()
+                if offset is not None:
+                    self.out.bias.copy_(offset)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         y = super().forward(x)

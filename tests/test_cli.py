@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 import torch
 
-from pcgeom import cli
-from pcgeom.apps.evaluate import angle_distortion, domain_hausdorff
+import pcgeom.cli.param as param_command
+from pcgeom import ParamResult, __version__, cli, parametrize
+from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
 from pcgeom.domains import Disk
 from pcgeom.examples import peaks_surface
 from pcgeom.io import read_points, write_ply_atomic
-from pcgeom.nets import NetConfig
-from pcgeom.optim import RefineConfig, ScheduleConfig, get_preset, parametrize
+from pcgeom.metrics import angle_distortion, domain_hausdorff
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -41,7 +41,7 @@ def _tiny(name: str):
 @pytest.fixture
 def tiny(monkeypatch):
     """Make every preset the CLI looks up tiny; unknown names still raise the real error."""
-    monkeypatch.setattr(cli, "get_preset", _tiny)
+    monkeypatch.setattr(param_command, "get_preset", _tiny)
 
 
 @pytest.fixture
@@ -51,7 +51,7 @@ def no_training(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("parametrize was called although the input is invalid")
 
-    monkeypatch.setattr(cli, "parametrize", forbidden)
+    monkeypatch.setattr(param_command, "parametrize", forbidden)
 
 
 def _grid(n_side: int = 8):
@@ -139,6 +139,9 @@ def test_bad_input_file(tmp_path, monkeypatch, capsys, no_training, case):
     "options, message",
     [
         (["--domain", "square"], "unknown domain 'square'; choose one of: free, disk"),
+        (["--domain", "disk:big"], "domain 'disk:big': expected numbers after 'disk:'"),
+        (["--domain", "disk:-1"], "domain 'disk:-1': radius: expected a positive finite number"),
+        (["--domain", "free:2"], "domain 'free:2': free takes no values; got 1 value(s)"),
         (["--preset", "slow"], "unknown preset 'slow'; choose one of: paper, fast"),
         (["--device", "tpu"], "unknown device 'tpu'; choose one of: auto, cpu, cuda"),
         (["--example", "peaks9"], "unknown example 'peaks9'; choose one of: peaks3, peaks5"),
@@ -233,7 +236,7 @@ def test_interrupt_keeps_no_output(tmp_path, monkeypatch, capsys):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "parametrize", interrupted)
+    monkeypatch.setattr(param_command, "parametrize", interrupted)
     assert cli.main(["param", "--example", "peaks3"]) == 130
     err = capsys.readouterr().err
     assert err == "pcgeom: error: interrupted (rerun with --resume to continue from the last " \
@@ -253,8 +256,9 @@ def test_example_peaks3_writes_map(tmp_path, monkeypatch, capsys, tiny):
 
     V, F = peaks_surface("peaks3")
     with np.load(tmp_path / "peaks3_uv.npz", allow_pickle=False) as z:
-        assert sorted(z.files) == ["center", "config_json", "faces", "history_json",
-                                   "lambda_inv", "scale", "uv"]
+        assert sorted(z.files) == ["center", "config_json", "domain_json", "faces",
+                                   "fingerprint", "history_json", "lambda_inv", "scale",
+                                   "seconds", "seed", "uv", "version"]
         uv, lam = z["uv"], z["lambda_inv"]
         assert uv.shape == (len(V), 2) and uv.dtype == np.float64
         assert np.isfinite(uv).all() and uv.std(axis=0).min() > 1e-3  # not collapsed
@@ -266,6 +270,13 @@ def test_example_peaks3_writes_map(tmp_path, monkeypatch, capsys, tiny):
         history = json.loads(str(z["history_json"]))
     assert [row["kind"] for row in history] == ["network", "refine"]
     assert all(np.isfinite(row["total"]) for row in history)
+
+    # The library reads it back, and it says what made it.
+    result = ParamResult.load(tmp_path / "peaks3_uv.npz", n_points=len(V))
+    assert (result.domain.spec, result.seed, result.version) == ("free", 0, __version__)
+    assert result.config == _tiny("fast") and result.preset == "custom"  # tiny is not 'fast'
+    assert result.history == history
+    np.testing.assert_array_equal(result.faces, F)
 
     lines = out.splitlines()
     assert lines[0] == f"peaks3: {len(V)} points -> peaks3_uv.npz"
@@ -349,7 +360,7 @@ def test_quiet_resume_and_checkpoint_are_passed_through(tmp_path, monkeypatch, c
         calls.append(kwargs)
         return parametrize(*args, **kwargs)
 
-    monkeypatch.setattr(cli, "parametrize", spy)
+    monkeypatch.setattr(param_command, "parametrize", spy)
     assert cli.main(["param", "scan.txt", "--resume", "--quiet", "--out", "a.npz"]) == 0
     (kw,) = calls
     assert kw["checkpoint"] == Path("a.ckpt")
@@ -363,7 +374,7 @@ def test_resume_from_foreign_checkpoint_is_an_error(tmp_path, capsys, tiny):
     V, _ = _grid()
     src = _write_txt(tmp_path / "scan.txt", V)
     ckpt = tmp_path / "scan_uv.ckpt"
-    parametrize(V, None, config=_tiny("fast"), device="cpu", seed=1, checkpoint=ckpt,
+    parametrize(V, "free", config=_tiny("fast"), device="cpu", seed=1, checkpoint=ckpt,
                 progress=False)
     assert ckpt.exists()
     _fails(capsys, ["param", str(src), "--resume", "--quiet"],
@@ -432,3 +443,54 @@ def test_evaluate_errors(tmp_path, capsys, mesh_and_map):
     _fails(capsys, ["evaluate", str(mesh), str(mapped), "--plot", str(tmp_path / "a.pdf")],
            "a.pdf: output must have extension '.png', got '.pdf'")
     assert not (tmp_path / "a.pdf").exists()
+
+
+def test_evaluate_reports_what_made_a_pcgeom_map(tmp_path, capsys, tiny):
+    V, F = _grid()
+    mesh = tmp_path / "mesh.ply"
+    write_ply_atomic(mesh, V, F)
+    out = tmp_path / "m.npz"
+    assert cli.main(["param", str(mesh), "--domain", "disk:0.5", "--seed", "2", "--quiet",
+                     "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert cli.main(["evaluate", str(mesh), str(out), "--json"]) == 0
+    out_, err = capsys.readouterr()
+    report = json.loads(out_)
+    assert err == ""  # a full results file: no warning
+    assert (report["domain"], report["seed"], report["version"]) == ("disk:0.5", 2, __version__)
+    assert report["preset"] == "custom"  # the tiny fixture's config, not a named preset
+    result = ParamResult.load(out)
+    assert report["domain_hausdorff"] == domain_hausdorff(result.uv, Disk(radius=0.5))
+
+
+def test_evaluate_warns_in_one_line_on_a_bare_uv_file(tmp_path, capsys, mesh_and_map):
+    """A uv array from another tool is evaluated; the missing provenance is one warning line."""
+    V, F, mesh, mapped = mesh_and_map
+    assert cli.main(["evaluate", str(mesh), str(mapped)]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.startswith("pcgeom: warning: ")
+    assert "map.npz: written by an older pcgeom or another tool; unknown: center, scale" in err
+
+
+def test_each_command_has_its_own_main(capsys):
+    assert param_command.main(["--help"]) == 0
+    assert "usage: pcgeom param" in capsys.readouterr().out
+    from pcgeom.cli import evaluate as evaluate_command
+
+    assert evaluate_command.main(["--help"]) == 0
+    assert "usage: pcgeom evaluate" in capsys.readouterr().out
+    code = param_command.main(["--preset", "slow", "--example", "peaks3"])
+    assert code == 2
+    assert capsys.readouterr().err == (
+        "pcgeom: error: unknown preset 'slow'; choose one of: paper, fast\n")
+
+
+def test_python_dash_m_pcgeom_works_like_pcgeom():
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "pcgeom", "--version"], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0
+    assert done.stdout.strip() == f"pcgeom {__version__}"

@@ -1,4 +1,8 @@
-"""Reading, validating and atomically writing point clouds (pcgeom.io)."""
+"""Reading, validating and atomically writing point clouds (pcgeom.io).
+
+The checks on arrays themselves (validate_points, validate_faces, deduplicate, normalize) are
+in test_cloud.py; the results file (ParamResult) in test_results.py.
+"""
 
 from __future__ import annotations
 
@@ -9,16 +13,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pcgeom.cloud import deduplicate
 from pcgeom.io import (
     SUPPORTED_EXTENSIONS,
     InputError,
     PointCloud,
     check_writable,
-    deduplicate,
-    normalize,
     read_points,
     save_npz_atomic,
-    validate_points,
     write_ply_atomic,
 )
 
@@ -48,6 +50,21 @@ def _fmt(row) -> str:
 
 def _ls(folder: Path) -> list[str]:
     return sorted(os.listdir(folder))
+
+
+# --------------------------------------------------------------------------- package surface
+
+
+def test_io_exports():
+    import pcgeom.io as pio
+
+    assert set(pio.__all__) == {"InputError", "PointCloud", "SUPPORTED_EXTENSIONS", "read_points",
+                                "write_ply_atomic", "check_writable", "write_atomic",
+                                "save_npz_atomic", "ParamResult"}
+    assert all(hasattr(pio, name) for name in pio.__all__)
+    # Array preparation lives in pcgeom.cloud, not here.
+    for name in ("validate_points", "deduplicate", "normalize"):
+        assert not hasattr(pio, name)
 
 
 # --------------------------------------------------------------------------- round trips
@@ -308,31 +325,6 @@ def test_collinear(tmp_path):
         read_points(tmp_path / "l.npz")
 
 
-def test_coplanar_is_fine():
-    x, y = np.meshgrid(np.arange(4.0), np.arange(4.0))
-    P = np.column_stack([x.ravel(), y.ravel(), np.zeros(16)])
-    assert validate_points(P).shape == (16, 3)
-
-
-def test_too_few_distinct_points():
-    V, _ = _cloud()
-    P = np.vstack([V[:6]] * 3)  # 18 points, 6 distinct
-    with pytest.raises(InputError, match=r"cloud: 6 distinct points \(of 18\), need at least 10"):
-        validate_points(P, name="cloud")
-
-
-def test_validate_points_shape_and_conversion():
-    with pytest.raises(InputError, match=r"points: expected shape \(N, 3\), got \(12,\)"):
-        validate_points(np.zeros(12))
-    with pytest.raises(InputError, match=r"P: expected shape \(N, 3\), got \(4, 3, 1\)"):
-        validate_points(np.zeros((4, 3, 1)), name="P")
-    with pytest.raises(InputError, match=r"points: cannot convert to a float array"):
-        validate_points([["a", "b", "c"]])
-    V, _ = _cloud()
-    out = validate_points(V.astype(np.float32).tolist())
-    assert out.dtype == np.float64 and out.shape == (30, 3)
-
-
 # --------------------------------------------------------------------------- duplicates
 
 
@@ -347,33 +339,6 @@ def test_duplicates_allowed_and_deduplicate_round_trips(tmp_path):
     np.testing.assert_array_equal(unique[inverse], P)
     np.testing.assert_array_equal(unique, V)  # first-occurrence order
     np.testing.assert_array_equal(inverse[30:], [4, 0, 4, 0])
-
-
-def test_deduplicate_order_matches_naive_loop():
-    rng = np.random.default_rng(1)
-    P = rng.integers(0, 4, size=(200, 3)).astype(np.float64)
-    seen: dict[tuple, int] = {}
-    naive_inverse = [seen.setdefault(tuple(p), len(seen)) for p in P]
-    unique, inverse = deduplicate(P)
-    np.testing.assert_array_equal(unique, np.array(list(seen)))
-    np.testing.assert_array_equal(inverse, naive_inverse)
-
-
-# --------------------------------------------------------------------------- normalize
-
-
-def test_normalize():
-    V, _ = _cloud()
-    P = V * 7.0 + np.array([100.0, -3.0, 2.0])
-    Pn, center, scale = normalize(P)
-    np.testing.assert_allclose(Pn.mean(axis=0), 0.0, atol=1e-14)
-    assert np.linalg.norm(Pn, axis=1).max() == pytest.approx(1.0, abs=1e-14)
-    np.testing.assert_allclose(center, P.mean(axis=0))
-    np.testing.assert_allclose(Pn * scale + center, P, atol=1e-12)
-    with pytest.raises(ValueError, match=r"P: expected shape \(N, 3\) with N >= 1, got \(0, 3\)"):
-        normalize(np.zeros((0, 3)))
-    with pytest.raises(ValueError, match="P: cannot normalize, scale is 0.0"):
-        normalize(np.ones((5, 3)))
 
 
 # --------------------------------------------------------------------------- writing
@@ -394,13 +359,13 @@ def test_npz_writer_leaves_nothing_on_failure(tmp_path):
 
 
 def test_ply_writer_leaves_nothing_on_failure_mid_write(tmp_path, monkeypatch):
-    import pcgeom.io as pio
+    import pcgeom.io.points as points_module
 
     def half_write(f, V, F):
         f.write(b"ply\nformat binary_little_endian 1.0\n")
         raise OSError("disk full")
 
-    monkeypatch.setattr(pio, "_write_ply", half_write)
+    monkeypatch.setattr(points_module, "_write_ply", half_write)
     V, F = _cloud()
     with pytest.raises(OSError, match="disk full"):
         write_ply_atomic(tmp_path / "out.ply", V, F)
@@ -438,7 +403,8 @@ def test_ply_writer_rejects_bad_arrays(tmp_path):
     V, F = _cloud()
     with pytest.raises(ValueError, match=r"vertices: expected shape \(N, 3\), got \(30, 2\)"):
         write_ply_atomic(tmp_path / "o.ply", V[:, :2])
-    with pytest.raises(ValueError, match=r"faces: indices 0\.\.30 out of range for 30 vertices"):
+    with pytest.raises(InputError,
+                       match=r"faces: faces reference vertex indices 0\.\.30 but there are 30 points"):
         write_ply_atomic(tmp_path / "o.ply", V, np.vstack([F, [[0, 1, 30]]]))
     with pytest.raises(ValueError, match="vertices: contain NaN or inf"):
         write_ply_atomic(tmp_path / "o.ply", np.full((3, 3), np.nan))

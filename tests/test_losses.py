@@ -4,7 +4,8 @@ Each test checks a loss against something independent of its implementation:
 a naive loop of the paper's formula, an analytic ground truth (HAND(X, X) -> 0,
 LEG = 0 for a similarity with the matching conformal factor), the paper's
 Theorem 1 (Boltzmann error bound) and Theorem 2 (LEG bounds angle distortion),
-SciPy's Hausdorff distance, or ``torch.autograd.gradcheck`` in float64.
+SciPy's Hausdorff distance, or ``torch.autograd.gradcheck`` in float64. Every entry of the
+backend tables (``LEG_BACKENDS``, ``HAND_BACKENDS``) is checked against the dense reference.
 """
 
 from __future__ import annotations
@@ -17,15 +18,19 @@ import torch
 from scipy.spatial.distance import directed_hausdorff, euclidean
 
 from pcgeom.losses import (
+    HAND_BACKENDS,
+    LEG_BACKENDS,
     boltzmann,
     hand,
-    hausdorff,
+    hand_dense,
     landmark_hand,
     leg,
+    leg_dense,
     leg_pairs,
     modified_hausdorff,
     pairwise_distances,
 )
+from pcgeom.metrics import hausdorff
 
 DTYPE = torch.float64
 
@@ -169,7 +174,7 @@ def test_hausdorff_and_modified_hausdorff_match_naive(n, m, dim):
     yw, wy = _naive_directed(Y, W), _naive_directed(W, Y)
     assert math.isclose(yw, directed_hausdorff(Y, W)[0], rel_tol=1e-12)
     assert math.isclose(wy, directed_hausdorff(W, Y)[0], rel_tol=1e-12)
-    assert abs(hausdorff(_t(Y), _t(W)).item() - max(yw, wy)) < 1e-12
+    assert abs(hausdorff(Y, W) - max(yw, wy)) < 1e-12  # the exact NumPy measure
     assert abs(modified_hausdorff(_t(Y), _t(W)).item() - (yw + wy)) < 1e-12
     # the pairwise distances themselves
     d = pairwise_distances(_t(Y), _t(W)).numpy()
@@ -357,6 +362,85 @@ def test_leg_vanishes_for_a_similarity_with_its_conformal_factor(sigma):
         for c in np.linspace(0.5, 1.5, 41)
     )
     assert best > 1e-4
+
+
+# --------------------------------------------------------------------------- #
+# LEG backend table: every entry against the dense reference
+# --------------------------------------------------------------------------- #
+def _all_ordered_pairs(n: int) -> tuple[torch.Tensor, torch.Tensor]:
+    i, j = torch.meshgrid(torch.arange(n), torch.arange(n), indexing="ij")
+    return i.reshape(-1), j.reshape(-1)
+
+
+def test_leg_backend_table():
+    assert LEG_BACKENDS == {"dense": leg_dense, "pairs": leg_pairs}
+    assert HAND_BACKENDS == {"dense": hand_dense}
+
+
+def test_leg_auto_picks_pairs_when_given_and_dense_otherwise():
+    X, Y, l = (_t(a) for a in _leg_problem(34))
+    rng = _rng(35)
+    i, j = torch.from_numpy(rng.integers(0, 7, 12)), torch.from_numpy(rng.integers(0, 7, 12))
+    w = _t(rng.uniform(0.1, 2.0, 12))
+    dense = leg_dense(X, Y, l, 0.8)
+    assert leg(X, Y, l, 0.8).item() == dense.item()
+    assert leg(X, Y, l, 0.8, backend="auto").item() == dense.item()
+    assert leg(X, Y, l, 0.8, backend="dense").item() == dense.item()
+    sparse = leg_pairs(X, Y, l, 0.8, i, j)
+    assert abs(sparse.item() - dense.item()) > 1e-3  # 12 random pairs are not all N^2 pairs
+    assert leg(X, Y, l, 0.8, pairs=(i, j)).item() == sparse.item()
+    assert leg(X, Y, l, 0.8, pairs=(i, j), backend="pairs").item() == sparse.item()
+    weighted = leg_pairs(X, Y, l, 0.8, i, j, w)
+    assert abs(weighted.item() - sparse.item()) > 1e-4  # the weights matter here
+    assert leg(X, Y, l, 0.8, pairs=(i, j), weight=w).item() == weighted.item()
+
+
+def test_leg_pairs_backend_with_all_pairs_equals_dense_value_and_gradient():
+    X, Y0, l0 = (_t(a) for a in _leg_problem(36))
+    pairs = _all_ordered_pairs(len(X))
+    grads = {}
+    for backend, kwargs in (("dense", {}), ("pairs", {"pairs": pairs})):
+        Y = Y0.clone().requires_grad_(True)
+        l = l0.clone().requires_grad_(True)
+        value = leg(X, Y, l, 0.8, backend=backend, **kwargs)
+        value.backward()
+        grads[backend] = (value.detach(), Y.grad, l.grad)
+    assert grads["dense"][0].item() > 1e-4  # non-trivial value
+    assert grads["dense"][1].abs().max() > 1e-4 and grads["dense"][2].abs().max() > 1e-4
+    for got, want in zip(grads["pairs"], grads["dense"]):
+        torch.testing.assert_close(got, want, rtol=1e-12, atol=1e-15)
+
+
+_DENSE_TAKES_NO_PAIRS = r"^leg: the 'dense' backend uses all pairs; do not pass pairs or weight$"
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (lambda n: {"backend": "keops"},
+         r"^leg: unknown backend 'keops'; choose one of: auto, dense, pairs$"),
+        (lambda n: {"backend": "pairs"}, r"^leg: the 'pairs' backend needs pairs=\(i, j\)$"),
+        (lambda n: {"backend": "dense", "pairs": _all_ordered_pairs(n)}, _DENSE_TAKES_NO_PAIRS),
+        (lambda n: {"weight": torch.ones(n * n, dtype=DTYPE)}, _DENSE_TAKES_NO_PAIRS),
+    ],
+    ids=["unknown", "pairs-without-pairs", "dense-with-pairs", "auto-with-only-weight"],
+)
+def test_leg_backend_errors(kwargs, match):
+    X, Y, l = (_t(a) for a in _leg_problem(37))
+    with pytest.raises(ValueError, match=match):
+        leg(X, Y, l, 0.8, **kwargs(len(X)))
+
+
+def test_hand_dispatch():
+    rng = _rng(38)
+    Y, W = _t(rng.uniform(size=(6, 2))), _t(rng.uniform(size=(9, 2)))
+    dense = hand_dense(Y, W, 5.0)
+    assert hand(Y, W, 5.0).item() == dense.item()
+    assert hand(Y, W, 5.0, backend="auto").item() == dense.item()
+    assert hand(Y, W, 5.0, backend="dense").item() == dense.item()
+    match = r"^hand: unknown backend 'pairs'; choose one of: auto, dense$"
+    with pytest.raises(ValueError, match=match):
+        hand(Y, W, 5.0, backend="pairs")
 
 
 # =========================================================================== #

@@ -8,14 +8,14 @@ al.: first layer U(-1/in, 1/in), hidden layers U(-sqrt(6/width), sqrt(6/width)) 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import pytest
 import torch
 from torch.func import functional_call
 
-from pcgeom.nets import DeformNet, LambdaInvNet, NetConfig, ParamNet, SineMLP
+from pcgeom.config import NetConfig
+from pcgeom.nets import DeformNet, LambdaInvNet, ParamNet, SineMLP
 
 
 def _reference_forward(net: SineMLP, x: torch.Tensor, first_scale: float) -> torch.Tensor:
@@ -104,22 +104,7 @@ def test_default_init_uses_plain_sine_and_pytorch_init():
     torch.testing.assert_close(net(x), _reference_forward(net, x, first_scale=1.0))
 
 
-@pytest.mark.parametrize(
-    "change, message",
-    [
-        ({"init": "relu"}, r"NetConfig.init must be 'siren' or 'default', got 'relu'"),
-        ({"width": 0}, r"NetConfig width and depth must be >= 1, got 0, 3"),
-        ({"depth": 0}, r"NetConfig width and depth must be >= 1, got 128, 0"),
-    ],
-)
-def test_net_config_rejects_bad_values(change, message):
-    with pytest.raises(ValueError, match=message):
-        NetConfig(**change)
-
-
-def test_net_config_is_frozen():
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        NetConfig().width = 3
+# NetConfig's validation is tested with the other configs in test_config.py.
 
 
 # --------------------------------------------------------------------------- gradients
@@ -167,6 +152,16 @@ def test_param_net_with_a_plane_starts_as_that_projection_and_trains_both_parts(
     net(x).pow(2).sum().backward()
     assert net.plane.weight.grad.abs().sum() > 0
     assert net.out.weight.grad.abs().sum() > 0  # the sine part leaves zero at once
+
+
+def test_param_net_plane_start_is_shifted_by_the_offset():
+    """The offset (a domain's centroid) moves the starting projection there."""
+    torch.manual_seed(0)
+    plane = torch.tensor([[1.0, 0.0, 0.0], [0.0, 0.6, 0.8]])
+    offset = torch.tensor([3.0, -2.0])
+    net = ParamNet(NetConfig(width=16, depth=2), plane=plane, offset=offset)
+    x = torch.randn(50, 3)
+    torch.testing.assert_close(net(x), x @ plane.T + offset)
 
 
 def test_param_net_rejects_a_plane_of_the_wrong_shape():

@@ -1,12 +1,12 @@
-"""Figures (pcgeom.plot): valid PNGs, written atomically, bad input rejected."""
+"""Figures (pcgeom.apps.plot): valid PNGs, written atomically, bad input rejected."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from pcgeom.apps.plot import plot_angle_histogram, plot_history, plot_map
 from pcgeom.domains import Disk
-from pcgeom.plot import plot_angle_histogram, plot_history, plot_map
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -69,9 +69,9 @@ def test_plot_map_overwrites_existing_file(tmp_path):
 @pytest.mark.parametrize(
     "uv, values, match",
     [
-        (np.zeros((5, 3)), None, r"uv: expected shape \(N, 2\) with N >= 1, got \(5, 3\)"),
-        (np.zeros((0, 2)), None, r"uv: expected shape \(N, 2\) with N >= 1, got \(0, 2\)"),
-        (np.array([[0.0, np.nan], [1.0, 1.0]]), None, "uv: contains NaN or inf"),
+        (np.zeros((5, 3)), None, r"U: expected shape \(N, 2\) with N >= 1, got \(5, 3\)"),
+        (np.zeros((0, 2)), None, r"U: expected shape \(N, 2\) with N >= 1, got \(0, 2\)"),
+        (np.array([[0.0, np.nan], [1.0, 1.0]]), None, "U: contains NaN or inf"),
         (np.zeros((5, 2)), np.zeros(4), r"values: expected shape \(5,\), got \(4,\)"),
     ],
 )

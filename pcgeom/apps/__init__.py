@@ -1,3 +1,7 @@
-"""Applications built on the core: evaluation (and later boundary detection, reconstruction)."""
+"""Applications built on the core: evaluation, figures, classical baselines.
 
-__all__: list[str] = []
+Apps may import :mod:`pcgeom.train`, :mod:`pcgeom.metrics`, :mod:`pcgeom.io` and the
+domains; nothing in the core imports an app.
+"""
+
+__all__ = ["evaluate", "plot", "baselines"]

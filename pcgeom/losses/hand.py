@@ -1,4 +1,9 @@
-"""HAND: Hausdorff Approximation from Node-wise Distances, and exact Hausdorff distances."""
+"""HAND: Hausdorff Approximation from Node-wise Distances, and its limit d'_H.
+
+:func:`hand` dispatches through :data:`HAND_BACKENDS` like :func:`pcgeom.losses.leg`; today
+there is one backend, ``"dense"`` (the N x M distance matrix), and ``"auto"`` picks it.
+The exact Hausdorff distance used to *measure* maps is :func:`pcgeom.metrics.hausdorff`.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +11,7 @@ import torch
 
 from .boltzmann import boltzmann
 
-__all__ = ["hand", "hausdorff", "modified_hausdorff", "pairwise_distances"]
+__all__ = ["hand", "hand_dense", "HAND_BACKENDS", "modified_hausdorff", "pairwise_distances"]
 
 
 def pairwise_distances(Y: torch.Tensor, W: torch.Tensor) -> torch.Tensor:
@@ -19,7 +24,7 @@ def pairwise_distances(Y: torch.Tensor, W: torch.Tensor) -> torch.Tensor:
     return d2.clamp_min(1e-30).sqrt()
 
 
-def hand(Y: torch.Tensor, W: torch.Tensor, alpha: float) -> torch.Tensor:
+def hand_dense(Y: torch.Tensor, W: torch.Tensor, alpha: float) -> torch.Tensor:
     r"""HAND, the smooth modified Hausdorff distance (paper, eq. DDHD).
 
     .. math::
@@ -52,13 +57,35 @@ def hand(Y: torch.Tensor, W: torch.Tensor, alpha: float) -> torch.Tensor:
     return y_to_w + w_to_y
 
 
-def hausdorff(Y: torch.Tensor, W: torch.Tensor) -> torch.Tensor:
-    r"""Exact Hausdorff distance :math:`d_H(Y, W) = \max(\max_i \min_k d^i_k, \max_k \min_i d^i_k)`."""
-    d = pairwise_distances(Y, W)
-    return torch.maximum(d.min(dim=1).values.max(), d.min(dim=0).values.max())
-
-
 def modified_hausdorff(Y: torch.Tensor, W: torch.Tensor) -> torch.Tensor:
     r"""The paper's modified Hausdorff distance (eq. d'_H): the sum of both directed distances."""
     d = pairwise_distances(Y, W)
     return d.min(dim=1).values.max() + d.min(dim=0).values.max()
+
+
+HAND_BACKENDS = {"dense": hand_dense}
+"""HAND implementations by name; :func:`hand` picks one."""
+
+
+def hand(Y: torch.Tensor, W: torch.Tensor, alpha: float, *, backend: str = "auto") -> torch.Tensor:
+    """HAND (paper, eq. DDHD; see :func:`hand_dense`) through :data:`HAND_BACKENDS`.
+
+    Parameters
+    ----------
+    Y : (N, D) tensor
+    W : (M, D) tensor
+    alpha : float, > 0
+    backend : {"auto", "dense"}
+        ``"auto"`` picks ``"dense"``.
+
+    Raises
+    ------
+    ValueError
+        Unknown backend (the message lists them).
+    """
+    if backend == "auto":
+        backend = "dense"
+    if backend not in HAND_BACKENDS:
+        raise ValueError(f"hand: unknown backend {backend!r}; choose one of: auto, "
+                         f"{', '.join(HAND_BACKENDS)}")
+    return HAND_BACKENDS[backend](Y, W, alpha)

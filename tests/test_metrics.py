@@ -1,4 +1,4 @@
-"""Map quality measures (pcgeom.apps.evaluate)."""
+"""Map quality measures (pcgeom.metrics)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from scipy.spatial.distance import cdist
 
-from pcgeom.apps.evaluate import AngleReport, angle_distortion, domain_hausdorff, hausdorff
-from pcgeom.domains import Disk
+from pcgeom.domains import Disk, FreeBoundary
+from pcgeom.errors import InputError
+from pcgeom.metrics import AngleReport, angle_distortion, domain_hausdorff, hausdorff
 from pcgeom.examples import peaks_surface
 
 requires_igl = pytest.mark.skipif(importlib.util.find_spec("igl") is None, reason="needs libigl")
@@ -135,21 +136,33 @@ def test_angle_distortion_input_errors():
         angle_distortion(V, F, U[:-1])
     with pytest.raises(ValueError, match=r"U: expected shape \(36, 2\) .*, got \(36, 3\)"):
         angle_distortion(V, F, V)
-    with pytest.raises(ValueError, match=r"F: expected shape \(M, 3\), got \(50, 4\)"):
-        angle_distortion(V, np.column_stack([F, F[:, 0]]), U)
-    with pytest.raises(ValueError, match=r"F: expected at least one face"):
-        angle_distortion(V, np.zeros((0, 3), dtype=np.int64), U)
-    match = r"F: references vertices 0\.\.36, expected indices in \[0, 36\) \(V has 36 rows\)"
-    with pytest.raises(ValueError, match=match):
-        angle_distortion(V, np.vstack([F, [[0, 1, 36]]]), U)
-    with pytest.raises(ValueError, match=r"F: references vertices -1\.\.35"):
-        angle_distortion(V, np.vstack([F, [[0, 1, -1]]]), U)
-    with pytest.raises(TypeError, match="F: expected integer vertex indices, got dtype float64"):
-        angle_distortion(V, F + 0.5, U)
     U_nan = U.copy()
     U_nan[3, 1] = np.nan
     with pytest.raises(ValueError, match="U: contains NaN or inf"):
         angle_distortion(V, F, U_nan)
+
+
+@pytest.mark.parametrize(
+    "faces, match",
+    [
+        (lambda F: np.column_stack([F, F[:, 0]]),
+         r"^F: faces must have shape \(M, 3\), got \(50, 4\)$"),
+        (lambda F: np.zeros((0, 3), dtype=np.int64), r"^F: expected at least one face, got none$"),
+        (lambda F: None, r"^F: expected at least one face, got none$"),
+        (lambda F: np.vstack([F, [[0, 1, 36]]]),
+         r"^F: faces reference vertex indices 0\.\.36 but there are 36 points$"),
+        (lambda F: np.vstack([F, [[0, 1, -1]]]),
+         r"^F: faces reference vertex indices -1\.\.35 but there are 36 points$"),
+        (lambda F: F + 0.5, r"^F: faces must hold integer vertex indices, got float64$"),
+        (lambda F: F.astype(str), r"^F: faces must hold integer vertex indices, got <U"),
+    ],
+    ids=["shape", "empty", "none", "above", "negative", "fractional", "strings"],
+)
+def test_angle_distortion_face_errors_come_from_the_one_face_validator(faces, match):
+    """Every face problem is an InputError from pcgeom.cloud.validate_faces, named "F"."""
+    V, F = _planar_mesh()
+    with pytest.raises(InputError, match=match):
+        angle_distortion(V, faces(F), V[:, :2])
 
 
 def test_missing_igl_gives_install_command(monkeypatch):
@@ -193,3 +206,20 @@ def test_domain_hausdorff():
         domain_hausdorff(disk.sample(10), None)
     with pytest.raises(ValueError, match=r"U: expected shape \(N, 2\), got \(10, 3\)"):
         domain_hausdorff(np.zeros((10, 3)), disk)
+    with pytest.raises(ValueError, match=r"^U: expected at least one point, got shape \(0, 2\)$"):
+        domain_hausdorff(np.zeros((0, 2)), disk)
+
+
+def test_domain_hausdorff_of_an_off_centre_disk():
+    """The distance is to the domain where it is, not to a disk at the origin."""
+    disk = Disk(center=(3.0, -2.0), radius=0.5)
+    assert domain_hausdorff(disk.sample(5000, seed=1), disk) < 0.02
+    # The same cloud at the origin is a whole centre offset, |(3, -2)| = 3.61, away.
+    far = domain_hausdorff(Disk(radius=0.5).sample(5000, seed=1), disk)
+    assert far == pytest.approx(np.hypot(3.0, 2.0), abs=0.02)
+
+
+def test_domain_hausdorff_needs_a_bounded_domain():
+    match = r"^domain: 'free' has no region to measure a distance to$"
+    with pytest.raises(ValueError, match=match):
+        domain_hausdorff(Disk().sample(10), FreeBoundary())

@@ -16,12 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import write_atomic
+from ..io.atomic import write_atomic
+from ..train.objective import LOSS_TERMS
 
 __all__ = ["plot_map", "plot_history", "plot_angle_histogram"]
-
-# Loss terms drawn by plot_history, in legend order (the keys optim's history uses).
-_LOSS_TERMS = ("total", "leg", "hand", "landmarks")
 
 
 def _new_figure(figsize: tuple[float, float]):
@@ -47,12 +45,12 @@ def _save_png_atomic(fig, path) -> Path:
     return path
 
 
-def plot_map(uv, path, values=None, domain=None, title: str | None = None) -> Path:
+def plot_map(U, path, values=None, domain=None, title: str | None = None) -> Path:
     """Scatter plot of a 2D map, optionally coloured by a per-point value.
 
     Parameters
     ----------
-    uv : (N, 2) array_like
+    U : (N, 2) array_like
         Mapped points.
     path : str or os.PathLike
         Output ``.png`` file, written atomically.
@@ -60,7 +58,8 @@ def plot_map(uv, path, values=None, domain=None, title: str | None = None) -> Pa
         Colour of each point (e.g. ``lambda_inv``), shown with a colourbar. Uniform colour when
         omitted.
     domain : pcgeom.domains.Domain, optional
-        Target domain; its boundary (``domain.boundary(n)``) is drawn as a closed red curve.
+        Target domain; a bounded domain's boundary (``domain.boundary(n)``) is drawn as a
+        closed red curve.
     title : str, optional
         Axes title.
 
@@ -72,29 +71,29 @@ def plot_map(uv, path, values=None, domain=None, title: str | None = None) -> Pa
     Raises
     ------
     ValueError
-        ``uv`` not (N, 2) with N >= 1, ``values`` not (N,), non-finite coordinates, or a path
+        ``U`` not (N, 2) with N >= 1, ``values`` not (N,), non-finite coordinates, or a path
         without the ``.png`` extension.
     """
-    uv = np.asarray(uv, dtype=np.float64)
-    if uv.ndim != 2 or uv.shape[1] != 2 or len(uv) == 0:
-        raise ValueError(f"uv: expected shape (N, 2) with N >= 1, got {uv.shape}")
-    if not np.isfinite(uv).all():
-        raise ValueError("uv: contains NaN or inf")
+    U = np.asarray(U, dtype=np.float64)
+    if U.ndim != 2 or U.shape[1] != 2 or len(U) == 0:
+        raise ValueError(f"U: expected shape (N, 2) with N >= 1, got {U.shape}")
+    if not np.isfinite(U).all():
+        raise ValueError("U: contains NaN or inf")
     if values is not None:
         values = np.asarray(values, dtype=np.float64)
-        if values.shape != (len(uv),):
-            raise ValueError(f"values: expected shape ({len(uv)},), got {values.shape}")
+        if values.shape != (len(U),):
+            raise ValueError(f"values: expected shape ({len(U)},), got {values.shape}")
 
     fig = _new_figure((6.0, 5.4))
     ax = fig.add_subplot()
     # Marker area shrinks with N so a dense cloud still shows its structure.
-    size = float(np.clip(20000.0 / len(uv), 1.0, 20.0))
+    size = float(np.clip(20000.0 / len(U), 1.0, 20.0))
     if values is None:
-        ax.scatter(uv[:, 0], uv[:, 1], s=size, c="tab:blue", linewidths=0)
+        ax.scatter(U[:, 0], U[:, 1], s=size, c="tab:blue", linewidths=0)
     else:
-        sc = ax.scatter(uv[:, 0], uv[:, 1], s=size, c=values, cmap="viridis", linewidths=0)
+        sc = ax.scatter(U[:, 0], U[:, 1], s=size, c=values, cmap="viridis", linewidths=0)
         fig.colorbar(sc, ax=ax, shrink=0.85)
-    if domain is not None:
+    if domain is not None and domain.bounded:
         b = np.asarray(domain.boundary(400), dtype=np.float64)  # (400, 2)
         closed = np.vstack([b, b[:1]])
         ax.plot(closed[:, 0], closed[:, 1], color="red", linewidth=1.2)
@@ -151,7 +150,7 @@ def plot_history(history, path, title: str | None = None) -> Path:
     fig = _new_figure((6.4, 4.2))
     ax = fig.add_subplot()
     drawn = 0
-    for term in _LOSS_TERMS:
+    for term in LOSS_TERMS:
         y = np.array([_positive_or_nan(row.get(term)) for row in history])
         if np.isnan(y).all():
             continue
@@ -179,7 +178,7 @@ def plot_angle_histogram(per_corner, path, bins: int = 60, title: str | None = N
     ----------
     per_corner : (M, 3) or (K,) array_like
         Absolute angle differences in radians, e.g. ``AngleReport.per_corner`` from
-        :func:`pcgeom.apps.evaluate.angle_distortion`.
+        :func:`pcgeom.metrics.angle_distortion`.
     path : str or os.PathLike
         Output ``.png`` file, written atomically.
     bins : int

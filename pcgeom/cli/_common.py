@@ -1,0 +1,113 @@
+"""What every command shares: the parser class, exit codes, error reporting, output checks."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import warnings
+from pathlib import Path
+from types import ModuleType
+
+from ..errors import InputError
+
+__all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "seed",
+           "distinct_paths", "print_angles", "add_command", "standalone_parser", "run_command"]
+
+EXIT_OK = 0
+EXIT_FAILURE = 1  # the run itself failed (I/O error, missing optional dependency)
+EXIT_USAGE = 2  # bad arguments or input, detected before any work
+EXIT_INTERRUPTED = 130
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with the CLI's one-line error format and exit status 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"pcgeom: error: {message} (see '{self.prog} --help')\n")
+
+
+def seed(text: str) -> int:
+    """argparse type of ``--seed``: a non-negative int."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
+    return value
+
+
+def distinct_paths(inputs: dict[str, str | None], outputs: dict[str, Path | None]) -> None:
+    """No output may be an input or another output (``InputError`` naming both options)."""
+    seen: dict[Path, str] = {}
+    for label, path in inputs.items():
+        if path is not None:
+            seen[Path(path).resolve()] = label
+    for key, path in outputs.items():
+        if path is None:
+            continue
+        option = f"--{key.replace('_', '-')}"
+        resolved = path.resolve()
+        if resolved in seen:
+            raise InputError(f"{os.fspath(path)}: {option} is the same file as {seen[resolved]}")
+        seen[resolved] = option
+
+
+def print_angles(report: dict) -> None:
+    """The human line for a map's angle distortion (``map_report`` keys)."""
+    print(f"angle distortion: mean {report['mean_abs_angle_rad']:.4f} rad over "
+          f"{report['n_faces']} triangles, {report['flipped']} flipped "
+          f"({report['flipped_percent']:.2f}%)")
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings as one line, ``pcgeom: warning: ...``, like the errors."""
+    print(f"pcgeom: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
+def _fail(message: str, code: int) -> int:
+    print(f"pcgeom: error: {' '.join(message.split())}", file=sys.stderr)
+    return code
+
+
+def add_command(sub, command: ModuleType) -> argparse.ArgumentParser:
+    """Register a command module (``NAME``, ``HELP``, ``DESCRIPTION``, ``EPILOG``,
+    ``configure``) as a subcommand."""
+    p = sub.add_parser(command.NAME, help=command.HELP, description=command.DESCRIPTION,
+                       epilog=command.EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    command.configure(p)
+    p.set_defaults(interrupted_hint=getattr(command, "INTERRUPTED_HINT", ""))
+    return p
+
+
+def standalone_parser(command: ModuleType) -> Parser:
+    """The parser of one command on its own (its ``main(argv)``), prog ``pcgeom NAME``."""
+    p = Parser(prog=f"pcgeom {command.NAME}", description=command.DESCRIPTION,
+               epilog=command.EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    command.configure(p)
+    p.set_defaults(interrupted_hint=getattr(command, "INTERRUPTED_HINT", ""))
+    return p
+
+
+def run_command(parser: argparse.ArgumentParser, argv: list[str] | None) -> int:
+    """Parse ``argv`` and run ``args.run(args)``, mapping failures to exit codes.
+
+    ``ValueError`` (``InputError`` included): bad input, one line, status 2;
+    ``OSError`` / ``ImportError``: status 1; Ctrl-C: status 130 with the command's
+    ``INTERRUPTED_HINT``.
+    """
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a usage error already printed
+        return exc.code if isinstance(exc.code, int) else EXIT_USAGE
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return args.run(args)
+    except ValueError as exc:
+        return _fail(str(exc), EXIT_USAGE)
+    except KeyboardInterrupt:
+        return _fail(f"interrupted{args.interrupted_hint}", EXIT_INTERRUPTED)
+    except (OSError, ImportError) as exc:
+        return _fail(f"{type(exc).__name__}: {exc}", EXIT_FAILURE)

@@ -1,0 +1,171 @@
+"""``pcgeom param``: map a 3D point cloud onto a 2D domain.
+
+Every input is checked before any training starts (file readable and valid, output paths
+writable with the right extension, domain/preset/device known). A bad input prints one line,
+``pcgeom: error: <message>``, on stderr and exits with status 2, leaving no output file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..apps.evaluate import map_report
+from ..cloud import validate_points
+from ..config import PRESETS, get_preset
+from ..domains import DOMAINS, get_domain
+from ..errors import InputError
+from ..examples import EXAMPLES, load_example
+from ..io import check_writable, read_points, write_ply_atomic
+from ..train import LOSS_TERMS, parametrize, resolve_device
+from ._common import EXIT_OK, distinct_paths, print_angles, run_command, seed, standalone_parser
+
+__all__ = ["configure", "run", "main"]
+
+NAME = "param"
+INTERRUPTED_HINT = " (rerun with --resume to continue from the last finished stage)"
+HELP = "map a 3D point cloud onto a 2D domain"
+DESCRIPTION = "Map a 3D point cloud sampled from an open surface onto a 2D domain."
+EPILOG = """\
+examples:
+  pcgeom param --example peaks3 --out peaks3_uv.npz --plot peaks3_uv.png
+      built-in three-peaks surface; also reports angle distortion against its mesh
+  pcgeom param scan.ply --domain disk --out scan_uv.npz --out-ply scan_uv.ply
+      map onto the unit disk; the PLY holds the mapped points (z = 0) and the input faces
+  pcgeom param scan.xyz --preset paper --device cuda --seed 3 --quiet --json
+      the paper's full schedule on a GPU; one JSON object on stdout for scripts
+  pcgeom param scan.xyz --resume
+      continue an interrupted run from scan_uv.ckpt (same input, preset and seed)
+
+The map file loads with pcgeom.ParamResult.load(path); it records the domain, preset, seed
+and pcgeom version. Faces in the input (PLY/OBJ/OFF/NPZ) are never used for training, only
+to report the angle distortion of the result. The checkpoint <out stem>.ckpt is written
+after each stage and removed after success.
+"""
+
+
+def configure(p: argparse.ArgumentParser) -> None:
+    """Add ``param``'s arguments to ``p``."""
+    p.add_argument("input", nargs="?", metavar="INPUT",
+                   help="point cloud: .ply .obj .off .xyz .txt .csv .npz (omit with --example)")
+    p.add_argument("--example", metavar="NAME",
+                   help=f"use a built-in surface instead of INPUT: {', '.join(EXAMPLES)}")
+    p.add_argument("--domain", default="free", metavar="SPEC",
+                   help=f"parameter domain: {', '.join(DOMAINS)}, or NAME:VALUES such as "
+                        "disk:0.5 (default: free boundary)")
+    p.add_argument("--preset", default="fast", metavar="NAME",
+                   help=f"training preset: {', '.join(PRESETS)} (default: fast)")
+    p.add_argument("--device", default="auto", metavar="DEV",
+                   help="auto, cpu or cuda (default: auto, CUDA when available)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
+    p.add_argument("--out", metavar="OUT.npz",
+                   help="output map (default: <input stem>_uv.npz next to the input; "
+                        "<example>_uv.npz in the current directory for --example)")
+    p.add_argument("--out-ply", metavar="MAPPED.ply",
+                   help="also write the mapped points (z = 0, input faces if any) as PLY")
+    p.add_argument("--plot", metavar="MAP.png",
+                   help="also draw the map coloured by lambda_inv")
+    p.add_argument("--resume", action="store_true",
+                   help="continue from the checkpoint <out stem>.ckpt if it exists")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object on stdout instead of a summary")
+    p.set_defaults(run=run)
+
+
+def _load_input(args) -> tuple[np.ndarray, np.ndarray | None, str, Path]:
+    """Points, faces, a display name and the default output path, from INPUT or --example."""
+    if (args.input is None) == (args.example is None):
+        raise InputError("give exactly one of INPUT or --example NAME")
+    if args.example is not None:
+        V, F = load_example(args.example)  # ValueError for an unknown name
+        V = validate_points(V, name=args.example)
+        return V, F, args.example, Path(f"{args.example}_uv.npz")
+    cloud = read_points(args.input)
+    src = Path(args.input)
+    return cloud.points, cloud.faces, args.input, src.with_name(f"{src.stem}_uv.npz")
+
+
+def _check_outputs(args, default_out: Path) -> dict[str, Path | None]:
+    """All output paths, checked writable, distinct, and none of them the input."""
+    outs = {
+        "out": check_writable(args.out if args.out is not None else default_out, "npz"),
+        "out_ply": check_writable(args.out_ply, "ply") if args.out_ply else None,
+        "plot": check_writable(args.plot, "png") if args.plot else None,
+    }
+    outs["checkpoint"] = check_writable(outs["out"].with_suffix(".ckpt"), "ckpt")
+    distinct_paths({"INPUT": args.input}, outs)
+    return outs
+
+
+def run(args) -> int:
+    """Run ``pcgeom param`` on parsed arguments; returns the exit status."""
+    # Everything that can be wrong with the request is checked here, before training.
+    domain = get_domain(args.domain)
+    config = get_preset(args.preset)
+    device = resolve_device(args.device)
+    points, faces, name, default_out = _load_input(args)
+    outs = _check_outputs(args, default_out)
+
+    result = parametrize(points, domain, config=config, device=device, seed=args.seed,
+                         checkpoint=outs["checkpoint"], resume=args.resume,
+                         progress=not args.quiet)
+    result.faces = faces
+    result.save(outs["out"])
+    if outs["out_ply"] is not None:
+        mapped = np.column_stack([result.uv, np.zeros(len(result.uv))])  # (N, 3), z = 0
+        write_ply_atomic(outs["out_ply"], mapped, faces)
+    if outs["plot"] is not None:
+        from ..apps.plot import plot_map
+
+        plot_map(result.uv, outs["plot"], values=result.lambda_inv, domain=domain,
+                 title=f"{name}: {domain.spec}, {args.preset} (colour: lambda_inv)")
+    report = map_report(result.uv, domain, points, faces)
+    outs["checkpoint"].unlink(missing_ok=True)
+
+    final = result.history[-1] if result.history else {}
+    evaluation = None
+    if faces is not None:
+        evaluation = {k: report[k] for k in ("mean_abs_angle_rad", "flipped", "n_faces")}
+    summary = {
+        "command": "param",
+        "input": name,
+        "out": os.fspath(outs["out"]),
+        "out_ply": os.fspath(outs["out_ply"]) if outs["out_ply"] else None,
+        "plot": os.fspath(outs["plot"]) if outs["plot"] else None,
+        "n_points": report["n_points"],
+        "domain": domain.spec,
+        "preset": args.preset,
+        "device": str(device),
+        "seed": args.seed,
+        "version": result.version,
+        "seconds": float(result.seconds),
+        "loss": {k: float(final[k]) for k in LOSS_TERMS if k in final},
+        "evaluation": evaluation,
+        "domain_hausdorff": report["domain_hausdorff"],
+    }
+    if args.json:
+        print(json.dumps(summary))
+        return EXIT_OK
+    written = [summary["out"]] + [summary[k] for k in ("out_ply", "plot") if summary[k]]
+    print(f"{name}: {summary['n_points']} points -> {', '.join(written)}")
+    print(f"preset {args.preset}, domain {domain.spec}, device {summary['device']}, "
+          f"seed {args.seed}: {summary['seconds']:.1f} s")
+    print("final loss: " + ", ".join(f"{k} {v:.4g}" for k, v in summary["loss"].items()))
+    if summary["domain_hausdorff"] is not None:
+        print(f"Hausdorff distance of the map to the {domain.spec} domain: "
+              f"{summary['domain_hausdorff']:.4f}")
+    if evaluation is not None:
+        print_angles(report)
+    return EXIT_OK
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``pcgeom param`` on its own: ``main(["--example", "peaks3"])``."""
+    import sys
+
+    return run_command(standalone_parser(sys.modules[__name__]), argv)

@@ -1,0 +1,329 @@
+"""Configuration as data: frozen dataclasses, validated when built, and the named presets.
+
+Every field's default is the paper's (section 6) unless its documentation says otherwise, and
+every config round-trips through plain dicts (:meth:`ParamConfig.to_dict`,
+:func:`config_from_dict`), which is how it is saved with each result and checkpoint.
+
+A bad value raises :class:`pcgeom.errors.InputError` (a ``ValueError``) when the config is
+constructed, naming the field and the allowed values, never a ``KeyError`` later in training.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from dataclasses import dataclass
+
+from .errors import InputError
+
+__all__ = [
+    "NetConfig",
+    "ScheduleConfig",
+    "OptimizerConfig",
+    "LossWeights",
+    "RefineConfig",
+    "ParamConfig",
+    "PRESETS",
+    "get_preset",
+    "preset_name",
+    "config_from_dict",
+]
+
+OPTIMIZERS = ("rmsprop", "adam")
+DTYPES = ("float32", "float64")
+INIT_MAPS = ("random", "plane")
+NET_INITS = ("siren", "default")
+
+
+# --------------------------------------------------------------------------- validation helpers
+
+
+def _choice(owner: str, field: str, value, choices: tuple[str, ...]) -> None:
+    if value not in choices:
+        raise InputError(f"{owner}.{field}: unknown value {value!r}; choose one of: "
+                         f"{', '.join(choices)}")
+
+
+def _positive(owner: str, field: str, value, *, allow_zero: bool = False) -> None:
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or value < 0 or (value == 0 and not allow_zero):
+        want = "a non-negative" if allow_zero else "a positive"
+        raise InputError(f"{owner}.{field}: expected {want} finite number, got {value!r}")
+
+
+def _count(owner: str, field: str, value, *, allow_zero: bool = False) -> None:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise InputError(f"{owner}.{field}: expected an int, got {type(value).__name__}")
+    if value < 0 or (value == 0 and not allow_zero):
+        want = ">= 0" if allow_zero else ">= 1"
+        raise InputError(f"{owner}.{field}: expected an int {want}, got {value}")
+
+
+# --------------------------------------------------------------------------- configs
+
+
+@dataclass(frozen=True)
+class NetConfig:
+    """Architecture and initialization of one sine-activated MLP (:mod:`pcgeom.nets`)."""
+
+    width: int = 128
+    """Hidden units per layer (paper, Figure "neural net arch": fully connected)."""
+    depth: int = 3
+    """Number of hidden (sine) layers."""
+    init: str = "siren"
+    """``"siren"``: Sitzmann et al.'s initialization with frequency ``w0``;
+    ``"default"``: PyTorch's default Linear initialization and plain ``sin``,
+    which is what the paper's "randomly initialized" networks use."""
+    w0: float = 5.0
+    """SIREN frequency of the first layer (``sin(w0 * (W x + b))``) on inputs in
+    the unit ball; 5 reproduced a fine map best in our measurements (DESIGN.md)."""
+
+    def __post_init__(self) -> None:
+        _choice("NetConfig", "init", self.init, NET_INITS)
+        _count("NetConfig", "width", self.width)
+        _count("NetConfig", "depth", self.depth)
+        _positive("NetConfig", "w0", self.w0)
+
+
+@dataclass(frozen=True)
+class ScheduleConfig:
+    """Algorithm 1's initial hyperparameters and bounds (defaults: paper, section 6)."""
+
+    epochs: int = 10000
+    """E, epochs of the first stage; halved after each stage (Alg. 1, line 17)."""
+    batch_points: int = 1024
+    """B_X, cloud points per mini-batch; doubled after each stage up to |X| (line 18)."""
+    batch_domain: int = 1024
+    """B_W, domain samples per mini-batch; doubled up to |W| (line 19)."""
+    sigma: float = 0.5
+    """LEG kernel width of the first stage; divided by sqrt 2 each stage (line 14)."""
+    alpha_initial: float = 2.0
+    """HAND sharpness at the start of the first stage (line 6)."""
+    alpha_final: float = 20.0
+    """HAND sharpness at the end of the first stage; doubled each stage (line 16)."""
+    sigma_min: float = 0.001
+    """Lower bound on sigma (line 14)."""
+    alpha_max: float = 100.0
+    """Upper bound on alpha_final (line 16)."""
+    epochs_min: int = 1000
+    """Lower bound on E (line 17)."""
+
+    def __post_init__(self) -> None:
+        for name in ("epochs", "batch_points", "batch_domain", "epochs_min"):
+            _count("ScheduleConfig", name, getattr(self, name))
+        for name in ("sigma", "alpha_initial", "alpha_final", "sigma_min", "alpha_max"):
+            _positive("ScheduleConfig", name, getattr(self, name))
+
+
+@dataclass(frozen=True)
+class OptimizerConfig:
+    """Optimizer of the networks (paper, section 6: RMSprop, alpha 0.99, lr 1e-4, momentum 0.9)."""
+
+    name: str = "rmsprop"
+    """``"rmsprop"`` or ``"adam"``."""
+    lr: float = 1e-4
+    """Learning rate."""
+    rmsprop_alpha: float = 0.99
+    """RMSprop smoothing constant."""
+    momentum: float = 0.9
+    """RMSprop momentum (ignored by Adam)."""
+
+    def __post_init__(self) -> None:
+        _choice("OptimizerConfig", "name", self.name, OPTIMIZERS)
+        _positive("OptimizerConfig", "lr", self.lr)
+        _positive("OptimizerConfig", "rmsprop_alpha", self.rmsprop_alpha)
+        _positive("OptimizerConfig", "momentum", self.momentum, allow_zero=True)
+
+
+@dataclass(frozen=True)
+class LossWeights:
+    """beta in eq. (optim problem overall); paper, section 6: (5, 1, 1)."""
+
+    leg: float = 5.0
+    """beta_1, LEG."""
+    domain: float = 1.0
+    """beta_2, HAND to the domain sample W."""
+    landmarks: float = 1.0
+    """beta_3, HAND of each landmark set to its target."""
+
+    def __post_init__(self) -> None:
+        for name in ("leg", "domain", "landmarks"):
+            _positive("LossWeights", name, getattr(self, name), allow_zero=True)
+
+
+@dataclass(frozen=True)
+class RefineConfig:
+    """Per-point refinement after the networks (not in the paper; ``steps = 0`` disables it).
+
+    The networks give a smooth, unfolded map but cannot resolve it to the point
+    spacing in a short budget (DESIGN.md: a 3 x 128 sine net regressed onto an
+    LSCM map reproduces it only to 0.04-0.09 rad). The refinement optimizes
+    each point's image ``y_i`` and ``l_i`` directly, starting from the networks'
+    values, on LEG restricted to each point's ``neighbours`` nearest neighbours
+    with ``sigma = sigma_spacing * h`` (``h``: mean nearest-neighbour distance),
+    plus HAND of all points against a random batch of the domain sample when the
+    domain is bounded. A kernel a few spacings wide keeps pairs at distances of
+    order sigma, where LEG's signal is.
+    """
+
+    steps: int = 0
+    """Adam steps (0: no refinement, as in the paper)."""
+    neighbours: int = 32
+    """Nearest neighbours per point whose pairs enter LEG."""
+    sigma_spacing: float = 3.0
+    """sigma in units of the mean nearest-neighbour spacing."""
+    lr_spacing: float = 0.05
+    """Adam step on the map, in units of the median mapped neighbour distance."""
+    lr_lambda: float = 2e-3
+    """Adam step on log l_i."""
+    batch_domain: int = 1024
+    """Domain samples per HAND evaluation during refinement (against all points)."""
+    alpha: float = 100.0
+    """HAND sharpness during refinement."""
+
+    def __post_init__(self) -> None:
+        _count("RefineConfig", "steps", self.steps, allow_zero=True)
+        _count("RefineConfig", "neighbours", self.neighbours)
+        _count("RefineConfig", "batch_domain", self.batch_domain)
+        for name in ("sigma_spacing", "lr_spacing", "lr_lambda", "alpha"):
+            _positive("RefineConfig", name, getattr(self, name))
+
+
+@dataclass(frozen=True)
+class ParamConfig:
+    """Everything that defines a run; saved with every result and checkpoint."""
+
+    schedule: ScheduleConfig = ScheduleConfig()
+    """Algorithm 1's stages."""
+    optimizer: OptimizerConfig = OptimizerConfig()
+    """Optimizer of the two networks."""
+    weights: LossWeights = LossWeights()
+    """beta_1, beta_2, beta_3."""
+    param_net: NetConfig = NetConfig(width=128, depth=3, init="default", w0=1.0)
+    """Parametrization net f: R^3 -> R^2."""
+    lambda_net: NetConfig = NetConfig(width=64, depth=2, init="default", w0=1.0)
+    """Inverse-lambda net l: R^3 -> R_{>0}."""
+    domain_samples: int = 8192
+    """|W|, the size of the sample of the parameter domain."""
+    max_stages: int = 0
+    """Stop Algorithm 1 after this many stages (0: run until B_X = |X|, as the paper)."""
+    init_map: str = "random"
+    """``"random"``: randomly initialized nets (paper, section 6); ``"plane"``: the
+    parametrization net starts as the projection onto the cloud's best-fit plane
+    (a trainable linear term, see :class:`pcgeom.nets.ParamNet`)."""
+    refine: RefineConfig = RefineConfig()
+    """Per-point refinement after the networks (``steps = 0``: none, as the paper)."""
+    dtype: str = "float32"
+    """Torch dtype of training, ``"float32"`` or ``"float64"``."""
+
+    def __post_init__(self) -> None:
+        _count("ParamConfig", "domain_samples", self.domain_samples)
+        _count("ParamConfig", "max_stages", self.max_stages, allow_zero=True)
+        _choice("ParamConfig", "init_map", self.init_map, INIT_MAPS)
+        _choice("ParamConfig", "dtype", self.dtype, DTYPES)
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            expected = _field_types(ParamConfig)[f.name]
+            if dataclasses.is_dataclass(expected) and not isinstance(value, expected):
+                raise InputError(f"ParamConfig.{f.name}: expected a {expected.__name__}, "
+                                 f"got {type(value).__name__}")
+
+    def to_dict(self) -> dict:
+        """Plain nested dict (JSON-serializable); :func:`config_from_dict` inverts it."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "ParamConfig":
+        """The config a :meth:`to_dict` dict describes (see :func:`config_from_dict`)."""
+        return config_from_dict(cls, data)
+
+
+def _field_types(cls) -> dict[str, type]:
+    """Resolved annotations of a dataclass (``from __future__ import annotations`` makes them
+    strings)."""
+    return typing.get_type_hints(cls)
+
+
+def config_from_dict(cls, data: dict, where: str | None = None):
+    """Build the dataclass ``cls`` from a nested dict, recursing into dataclass fields.
+
+    Missing keys take the field's default (so files written before a field existed still
+    load); unknown keys are an error, as is a value the config rejects.
+
+    ``where`` names the place in messages (default: the class name; nested fields read
+    ``ParamConfig.schedule``).
+
+    Raises
+    ------
+    InputError
+        ``data`` is not a dict, has keys ``cls`` does not know, or holds an invalid value.
+    """
+    where = where or cls.__name__
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: expected a dict, got {type(data).__name__}")
+    types = _field_types(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise InputError(f"{where}: unknown field(s) {', '.join(unknown)}; "
+                         f"known: {', '.join(sorted(names))}")
+    kwargs = {}
+    for name, value in data.items():
+        if dataclasses.is_dataclass(types[name]):
+            value = config_from_dict(types[name], value, f"{where}.{name}")
+        kwargs[name] = value
+    try:
+        return cls(**kwargs)
+    except TypeError as exc:
+        raise InputError(f"{where}: {exc}") from None
+
+
+# --------------------------------------------------------------------------- presets
+
+
+PRESETS: dict[str, ParamConfig] = {
+    # Section 6 exactly: E = 10000, B = 1024, sigma 0.5, alpha 2 -> 20, caps
+    # (0.001, 100, 1000), RMSprop(alpha 0.99, lr 1e-4, momentum 0.9), beta (5, 1, 1),
+    # randomly initialized sine networks, all stages until the batch is the cloud.
+    "paper": ParamConfig(),
+    # Everyday use: Adam at 1e-3 on SIREN-initialized nets, the parametrization net
+    # starting from the best-fit-plane projection, for two short stages (sigma
+    # 0.5 -> 0.35, batches 1024 -> 2048) to get a smooth unfolded map, then the
+    # per-point refinement on local LEG pairs.
+    "fast": ParamConfig(
+        schedule=ScheduleConfig(
+            epochs=120, sigma=0.5, alpha_initial=2.0, alpha_final=20.0, epochs_min=30
+        ),
+        optimizer=OptimizerConfig(name="adam", lr=1e-3),
+        param_net=NetConfig(width=128, depth=3, init="siren", w0=5.0),
+        lambda_net=NetConfig(width=64, depth=2, init="siren", w0=5.0),
+        max_stages=2,
+        init_map="plane",
+        refine=RefineConfig(steps=1000),
+    ),
+}
+"""Named configs. ``paper`` is section 6 exactly; ``fast`` is the everyday default."""
+
+
+def get_preset(name: str, **overrides) -> ParamConfig:
+    """A named preset, optionally with top-level fields replaced (``dataclasses.replace``).
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the presets) or an invalid override.
+    """
+    if name not in PRESETS:
+        raise InputError(f"unknown preset {name!r}; choose one of: {', '.join(PRESETS)}")
+    fields = {f.name for f in dataclasses.fields(ParamConfig)}
+    unknown = sorted(set(overrides) - fields)
+    if unknown:
+        raise InputError(f"get_preset: unknown field(s) {', '.join(unknown)}; "
+                         f"known: {', '.join(sorted(fields))}")
+    return dataclasses.replace(PRESETS[name], **overrides)
+
+
+def preset_name(config: ParamConfig) -> str:
+    """The name of the preset equal to ``config``, or ``"custom"``."""
+    return next((name for name, preset in PRESETS.items() if preset == config), "custom")

@@ -1,0 +1,89 @@
+"""Parameter domains: 2D regions the cloud is mapped onto, looked up by a spec.
+
+A spec is a name (``"free"``, ``"disk"``), a name with values for the domain's ``spec_args``
+(``"disk:0.5"``: the disk of radius 0.5), a dict ``{"name": ..., **parameters}`` (what result
+files store, from :meth:`Domain.to_dict`), or a :class:`Domain` itself. New domains register
+their class in :data:`DOMAINS`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+from ..errors import InputError
+from .base import Domain
+from .disk import Disk
+from .free import FreeBoundary
+
+__all__ = ["Domain", "FreeBoundary", "Disk", "DOMAINS", "get_domain"]
+
+DOMAINS: dict[str, type[Domain]] = {cls.name: cls for cls in (FreeBoundary, Disk)}
+"""Registry: domain name -> class (constructed with its parameters)."""
+
+
+def get_domain(spec) -> Domain:
+    """The domain a spec describes.
+
+    Parameters
+    ----------
+    spec : str, dict or Domain
+        ``"name"`` (default parameters), ``"name:v1,v2"`` (numbers for the class's
+        ``spec_args``, e.g. ``"disk:0.5"``), ``{"name": ..., **parameters}`` as written by
+        :meth:`Domain.to_dict` (or its JSON text, as :attr:`Domain.spec` gives it), or a
+        :class:`Domain`, returned as is.
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the registered ones), wrong number of values, a value
+        that is not a number, unknown parameters, or parameters the domain rejects.
+    TypeError
+        ``spec`` is none of the above (e.g. None: the free boundary is ``"free"``).
+    """
+    if isinstance(spec, Domain):
+        return spec
+    if isinstance(spec, str) and spec.lstrip().startswith("{"):  # the JSON form of Domain.spec
+        try:
+            spec = json.loads(spec)
+        except ValueError:
+            raise InputError(f"domain {spec!r}: not valid JSON") from None
+    if isinstance(spec, str):
+        name, _, args = spec.partition(":")
+        cls = _lookup(name)
+        values = [a.strip() for a in args.split(",")] if args else []
+        if len(values) > len(cls.spec_args):
+            takes = ", ".join(cls.spec_args) if cls.spec_args else "no values"
+            raise InputError(f"domain {spec!r}: {name} takes {takes}; got {len(values)} value(s)")
+        try:
+            params = {key: float(v) for key, v in zip(cls.spec_args, values)}
+        except ValueError:
+            raise InputError(f"domain {spec!r}: expected numbers after '{name}:'") from None
+        return _build(cls, params, spec)
+    if isinstance(spec, dict):
+        params = dict(spec)
+        if "name" not in params:
+            raise InputError(f"domain {spec!r}: no 'name'; choose one of: {', '.join(DOMAINS)}")
+        cls = _lookup(params.pop("name"))
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(params) - known)
+        if unknown:
+            raise InputError(f"domain {cls.name}: unknown parameter(s) {', '.join(unknown)}; "
+                             f"known: {', '.join(sorted(known)) or 'none'}")
+        params = {k: tuple(v) if isinstance(v, list) else v for k, v in params.items()}
+        return _build(cls, params, cls.name)
+    raise TypeError(f"domain: expected a name, a dict or a Domain, got {type(spec).__name__}"
+                    + (" (the free boundary is 'free')" if spec is None else ""))
+
+
+def _lookup(name) -> type[Domain]:
+    if name not in DOMAINS:
+        raise InputError(f"unknown domain {name!r}; choose one of: {', '.join(DOMAINS)}")
+    return DOMAINS[name]
+
+
+def _build(cls: type[Domain], params: dict, shown: str) -> Domain:
+    try:
+        return cls(**params)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"domain {shown!r}: {' '.join(str(exc).split())}") from None

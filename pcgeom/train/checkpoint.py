@@ -1,0 +1,52 @@
+"""Stage checkpoints: written atomically after each stage, loaded without running code.
+
+A checkpoint holds tensors, numbers, strings, lists and dicts only, and is loaded with
+``torch.load(weights_only=True)``: a crafted ``.ckpt`` cannot execute anything, it fails to
+load. It also records the input's fingerprint, the config and the seed, and a run resumes only
+from a checkpoint of the same three.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+
+from ..cloud import _one_line
+from ..errors import InputError
+from ..io.atomic import write_atomic
+
+__all__ = ["save_checkpoint", "load_checkpoint"]
+
+_IDENTITY = ("fingerprint", "config", "seed")
+
+
+def save_checkpoint(path, state: dict) -> None:
+    """``torch.save(state)`` to ``path`` atomically."""
+    write_atomic(Path(path), lambda f: torch.save(state, f))
+
+
+def load_checkpoint(path, *, fingerprint: str, config: dict, seed: int) -> dict:
+    """The state saved at ``path``, checked to come from this input, config and seed.
+
+    Loaded onto the CPU: the RNG states must be CPU ByteTensors (``set_state`` rejects CUDA
+    ones); ``load_state_dict`` then copies weights and optimizer state to the run's device.
+
+    Raises
+    ------
+    InputError
+        The file is not a pcgeom checkpoint, holds anything but plain data (e.g. pickled
+        objects), or comes from a different input, config or seed.
+    """
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # pickle.UnpicklingError for code, RuntimeError for garbage, ...
+        raise InputError(f"{path}: not a loadable pcgeom checkpoint ({_one_line(exc)[:200]}); "
+                         "delete it to start over") from None
+    if not isinstance(state, dict) or not set(_IDENTITY) <= set(state):
+        raise InputError(f"{path}: not a pcgeom checkpoint; delete it to start over")
+    expected = {"fingerprint": fingerprint, "config": config, "seed": seed}
+    if any(state[key] != expected[key] for key in _IDENTITY):
+        raise InputError(f"{path}: checkpoint is from a different input, config or seed; "
+                         "delete it to start over")
+    return state

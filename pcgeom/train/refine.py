@@ -1,0 +1,80 @@
+"""Per-point refinement after the networks (see :class:`pcgeom.config.RefineConfig`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from ..config import RefineConfig
+from .data import TrainData
+from .objective import Batch, Objective, StageLog, step
+
+__all__ = ["refine"]
+
+_READ_EVERY = 50
+"""Refinement steps between two reads of the loss terms (each read synchronizes a GPU)."""
+
+
+def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Tensor],
+           objective: Objective, config: RefineConfig, *, progress: bool
+           ) -> tuple[torch.Tensor, torch.Tensor, dict]:
+    """Optimize each point's image and ``log l_i`` on local LEG pairs, from ``start``.
+
+    Parameters
+    ----------
+    data : TrainData
+        The run's tensors; HAND pulls all points onto a fresh batch of ``data.W`` every step.
+    Xn : (N, 3) float64
+        The normalized cloud (``data.X`` in NumPy), for the neighbour search.
+    start : ((N, 2) tensor, (N,) tensor)
+        The networks' map and l at the points.
+    objective : Objective
+    config : RefineConfig
+
+    Returns
+    -------
+    U : (N, 2) tensor
+    lam_inv : (N,) tensor
+    record : dict
+        The history record of the refinement.
+    """
+    from scipy.spatial import cKDTree
+
+    U0, lam0 = start
+    X, dev = data.X, data.X.device
+    n = len(Xn)
+    k = min(config.neighbours, n - 1)
+    tree = cKDTree(Xn)
+    dist, nb = tree.query(Xn, k + 1)
+    spacing = float(dist[:, 1].mean())
+    sigma = config.sigma_spacing * spacing
+    i = torch.arange(n, device=dev).repeat_interleave(k)
+    j = torch.as_tensor(nb[:, 1:].reshape(-1), device=dev)
+    with torch.no_grad():
+        mapped_spacing = float((U0[i] - U0[j]).norm(dim=-1).median())
+    U = U0.detach().clone().requires_grad_(True)
+    log_l = lam0.detach().clamp_min(1e-12).log().clone().requires_grad_(True)
+    opt = torch.optim.Adam([{"params": [U], "lr": config.lr_spacing * mapped_spacing},
+                            {"params": [log_l], "lr": config.lr_lambda}])
+    # Each landmark point acts through its nearest cloud point.
+    lm_index = [torch.as_tensor(tree.query(p.cpu().double().numpy())[1], device=dev)
+                for p in data.landmark_points]
+    batch_domain = min(config.batch_domain, data.n_domain)
+    log = StageLog(config.steps, "refine", progress)
+    for s in range(config.steps):
+        batch = Batch(
+            X=X, Y=U, lam_inv=log_l.exp(), sigma=sigma, alpha=config.alpha, pairs=(i, j),
+            # All points every step: HAND on a random subset would move only that
+            # subset's points and tear them from their neighbours.
+            W=data.domain_batch(batch_domain), landmark_index=lm_index,
+        )
+        terms = step(objective, batch, opt)
+        if s == config.steps - 1 or (log.bar is not None and s % _READ_EVERY == 0):
+            log.read(terms)
+        log.advance()
+    record = log.record(
+        stage="refine", kind="refine", epochs=1, steps=config.steps, sigma=sigma,
+        alpha_initial=config.alpha, alpha_final=config.alpha, batch_points=n,
+        batch_domain=batch_domain,
+    )
+    return U.detach(), log_l.detach().exp(), record

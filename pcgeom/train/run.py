@@ -1,0 +1,184 @@
+"""``parametrize``: prepare the cloud, run Algorithm 1's stages, refine, return a result.
+
+A run is: validate and normalize the cloud, train the parametrization net ``f`` and the
+inverse-lambda net ``l`` stage by stage with Algorithm 1 (the batch doubles, the epochs halve,
+sigma shrinks by sqrt 2, alpha ramps and doubles, with caps), then, when the config refines
+(the ``fast`` preset), refine the per-point map on local LEG pairs.
+
+Normalization: the cloud is translated so its centroid is at the origin and scaled so the
+farthest point is at distance 1 (``X_n = (X - center) / scale``). Sigma and alpha are in these
+units, and the returned map is that of ``X_n``; the transform ``center, scale`` is returned
+with it.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .._version import __version__
+from ..cloud import deduplicate, fingerprint, normalize, validate_points
+from ..config import ParamConfig, get_preset
+from ..domains import Domain, get_domain
+from ..errors import InputError
+from ..io.results import ParamResult
+from .checkpoint import load_checkpoint, save_checkpoint
+from .data import TrainData
+from .device import resolve_device
+from .networks import build_networks, run_network_stage
+from .objective import Objective
+from .plan import stage_plan
+from .refine import refine
+
+__all__ = ["parametrize"]
+
+_DTYPES = {"float32": torch.float32, "float64": torch.float64}
+
+
+def _landmark_tensors(landmarks, center, scale, device, dtype):
+    """Landmark points normalized like the cloud, targets as given (domain units)."""
+    points, targets = [], []
+    for k, (p, q) in enumerate(landmarks):
+        p = np.asarray(p, dtype=np.float64)
+        q = np.asarray(q, dtype=np.float64)
+        if p.ndim != 2 or p.shape[1] != 3 or len(p) == 0:
+            raise InputError(f"landmark set {k}: expected points of shape (n, 3), got {p.shape}")
+        if q.ndim != 2 or q.shape[1] != 2 or len(q) == 0:
+            raise InputError(f"landmark target {k}: expected points of shape (m, 2), got {q.shape}")
+        if not (np.isfinite(p).all() and np.isfinite(q).all()):
+            raise InputError(f"landmark pair {k}: contains NaN or inf")
+        points.append(torch.tensor((p - center) / scale, device=device, dtype=dtype))
+        targets.append(torch.tensor(q, device=device, dtype=dtype))
+    return points, targets
+
+
+def parametrize(
+    points,
+    domain: Domain | str | dict = "free",
+    *,
+    config: ParamConfig | None = None,
+    landmarks: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+    device: str | torch.device = "auto",
+    seed: int = 0,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    progress: bool = True,
+    on_stage: Callable[[dict, np.ndarray], None] | None = None,
+) -> ParamResult:
+    """Parametrize a point cloud onto ``domain``.
+
+    Solves eq. (optim problem overall) with Algorithm 1:
+    ``beta_1 LEG(f, l, X u P) + beta_2 HAND(f(X), W) + beta_3 sum_k HAND(f(P_k), Q_k)``.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like
+        The cloud; checked with :func:`pcgeom.cloud.validate_points` before any work
+        (:class:`pcgeom.errors.InputError` on bad input). Duplicate points are trained once
+        and get the same output row.
+    domain : Domain, str or dict
+        Parameter domain or its spec (:func:`pcgeom.domains.get_domain`); ``"free"`` (the
+        default) for the free-boundary map (LEG only).
+    config : ParamConfig
+        Defaults to the ``fast`` preset.
+    landmarks : sequence of ((n_k, 3), (m_k, 2)) pairs
+        Landmark points on the surface (same frame as ``points``) and their target sets in
+        the domain; sizes may differ. Needs a bounded domain.
+    device : "auto", "cpu", "cuda" or torch.device
+    seed : int
+        Seeds torch, the mini-batches and the domain sample; a run is repeatable on one
+        device.
+    checkpoint : path, optional
+        Written after every stage; with ``resume=True`` a run continues from it.
+    progress : bool
+        tqdm bars on stderr.
+    on_stage : callable, optional
+        Called after every stage (and the refinement) with the stage's history record and
+        the current map, (N, 2) float64 in the input's row order: for per-stage curves of
+        quality measures the optimizer does not know about.
+
+    Returns
+    -------
+    ParamResult
+        With the domain, seed, version and input fingerprint it was made with.
+    """
+    t_start = time.perf_counter()
+    config = config if config is not None else get_preset("fast")
+    domain = get_domain(domain)
+    dev = resolve_device(device)
+    dtype = _DTYPES[config.dtype]
+    P = validate_points(points)
+    unique, inverse = deduplicate(P)
+    Xn, center, scale = normalize(unique)
+    lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
+    if lm_points and not domain.bounded:
+        raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
+    W = None
+    if domain.bounded:
+        W = torch.tensor(domain.sample(config.domain_samples, seed=seed), device=dev, dtype=dtype)
+    gen = torch.Generator(device="cpu")
+    data = TrainData(torch.tensor(Xn, device=dev, dtype=dtype), W, lm_points, lm_targets, gen)
+    stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
+    objective = Objective(config.weights, lm_targets)
+
+    torch.manual_seed(seed)
+    gen.manual_seed(seed)
+    nets = build_networks(config, Xn, domain, data)
+    identity = {"fingerprint": fingerprint(P), "config": config.to_dict(), "seed": seed}
+    history: list[dict] = []
+    start_stage = 0
+    ckpt = Path(checkpoint) if checkpoint is not None else None
+    if ckpt is not None and resume and ckpt.exists():
+        state = load_checkpoint(ckpt, **identity)
+        nets.load_state_dict(state["networks"])
+        gen.set_state(state["gen"])
+        torch.set_rng_state(state["torch_rng"])
+        history = state["history"]
+        start_stage = state["next_stage"]
+
+    def current_map() -> np.ndarray:
+        with torch.no_grad():
+            return nets.param_net(data.X).cpu().double().numpy()[inverse]
+
+    for stage in stages[start_stage:]:
+        record = run_network_stage(stage, nets, data, objective, n_stages=len(stages),
+                                   progress=progress)
+        history.append(record)
+        if on_stage is not None:
+            on_stage(record, current_map())
+        if ckpt is not None:
+            save_checkpoint(ckpt, {
+                "networks": nets.state_dict(),
+                "gen": gen.get_state(),
+                "torch_rng": torch.get_rng_state(),
+                "history": history,
+                "next_stage": stage.index + 1,
+                **identity,
+            })
+
+    with torch.no_grad():
+        U = nets.param_net(data.X)
+        lam_inv = nets.lambda_net(data.X)
+    if config.refine.steps > 0:
+        U, lam_inv, record = refine(data, Xn, (U, lam_inv), objective, config.refine,
+                                    progress=progress)
+        history.append(record)
+        if on_stage is not None:
+            on_stage(record, U.cpu().double().numpy()[inverse])
+    return ParamResult(
+        uv=U.detach().cpu().double().numpy()[inverse],
+        lambda_inv=lam_inv.detach().cpu().double().numpy()[inverse],
+        center=center,
+        scale=float(scale),
+        config=config,
+        domain=domain,
+        seed=seed,
+        history=history,
+        seconds=time.perf_counter() - t_start,
+        fingerprint=identity["fingerprint"],
+        version=__version__,
+    )

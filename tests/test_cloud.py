@@ -1,0 +1,135 @@
+"""Preparing a cloud for training (pcgeom.cloud): validation, faces, duplicates, normalization.
+
+Reading files is tested in test_io.py; here the arrays are given directly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pcgeom.cloud import deduplicate, fingerprint, normalize, validate_faces, validate_points
+from pcgeom.errors import InputError
+
+
+def _saddle() -> np.ndarray:
+    """z = x^2 - y^2 on a 6 x 5 grid with non-round coordinates. (30, 3)"""
+    x, y = np.meshgrid(np.linspace(-0.7, 0.9, 6), np.linspace(-0.3, 1.1, 5), indexing="xy")
+    return np.column_stack([x.ravel(), y.ravel(), (x**2 - y**2).ravel()]) * np.pi
+
+
+# --------------------------------------------------------------------------- points
+
+
+def test_input_error_is_a_value_error():
+    assert issubclass(InputError, ValueError)
+
+
+def test_coplanar_is_fine():
+    x, y = np.meshgrid(np.arange(4.0), np.arange(4.0))
+    P = np.column_stack([x.ravel(), y.ravel(), np.zeros(16)])
+    assert validate_points(P).shape == (16, 3)
+
+
+def test_too_few_distinct_points():
+    V = _saddle()
+    P = np.vstack([V[:6]] * 3)  # 18 points, 6 distinct
+    with pytest.raises(InputError, match=r"cloud: 6 distinct points \(of 18\), need at least 10"):
+        validate_points(P, name="cloud")
+
+
+def test_validate_points_shape_and_conversion():
+    with pytest.raises(InputError, match=r"points: expected shape \(N, 3\), got \(12,\)"):
+        validate_points(np.zeros(12))
+    with pytest.raises(InputError, match=r"P: expected shape \(N, 3\), got \(4, 3, 1\)"):
+        validate_points(np.zeros((4, 3, 1)), name="P")
+    with pytest.raises(InputError, match=r"points: cannot convert to a float array"):
+        validate_points([["a", "b", "c"]])
+    V = _saddle()
+    out = validate_points(V.astype(np.float32).tolist())
+    assert out.dtype == np.float64 and out.shape == (30, 3)
+
+
+# --------------------------------------------------------------------------- faces
+
+
+def test_validate_faces_accepts_integers_and_whole_floats():
+    F = np.array([[0, 1, 2], [2, 1, 3]], dtype=np.int32)
+    out = validate_faces(F, 4)
+    assert out.dtype == np.int64
+    np.testing.assert_array_equal(out, F)
+    out = validate_faces(F.astype(np.float64), 4)  # faces from MATLAB files
+    assert out.dtype == np.int64
+    np.testing.assert_array_equal(out, F)
+    np.testing.assert_array_equal(validate_faces(F.tolist(), 4), F)
+
+
+def test_validate_faces_empty_is_none_unless_faces_are_required():
+    assert validate_faces(None, 4) is None
+    assert validate_faces(np.zeros((0, 3), dtype=np.int64), 4) is None
+    with pytest.raises(InputError, match=r"^mesh\.ply: expected at least one face, got none$"):
+        validate_faces(None, 4, name="mesh.ply", allow_empty=False)
+
+
+@pytest.mark.parametrize(
+    "F, match",
+    [
+        (np.zeros((2, 4), dtype=np.int64), r"faces must have shape \(M, 3\), got \(2, 4\)$"),
+        (np.zeros(3, dtype=np.int64), r"faces must have shape \(M, 3\), got \(3,\)$"),
+        (np.array([[0, 1, 2.5]]), r"faces must hold integer vertex indices, got float64$"),
+        (np.array([[0, 1, np.nan]]), r"faces must hold integer vertex indices, got float64$"),
+        (np.array([[True, False, True]]), r"faces must hold integer vertex indices, got bool$"),
+        (np.array([[0, 1, 4]]), r"faces reference vertex indices 0\.\.4 but there are 4 points$"),
+        (np.array([[-1, 1, 2]]), r"faces reference vertex indices -1\.\.2 but there are 4 points$"),
+    ],
+    ids=["shape", "flat", "fraction", "nan", "bool", "above", "negative"],
+)
+def test_validate_faces_errors(F, match):
+    with pytest.raises(InputError, match="^faces: " + match):
+        validate_faces(F, 4)
+
+
+# --------------------------------------------------------------------------- duplicates
+
+
+def test_deduplicate_order_matches_naive_loop():
+    rng = np.random.default_rng(1)
+    P = rng.integers(0, 4, size=(200, 3)).astype(np.float64)
+    seen: dict[tuple, int] = {}
+    naive_inverse = [seen.setdefault(tuple(p), len(seen)) for p in P]
+    unique, inverse = deduplicate(P)
+    np.testing.assert_array_equal(unique, np.array(list(seen)))
+    np.testing.assert_array_equal(inverse, naive_inverse)
+
+
+# --------------------------------------------------------------------------- normalize
+
+
+def test_normalize():
+    V = _saddle()
+    P = V * 7.0 + np.array([100.0, -3.0, 2.0])
+    Pn, center, scale = normalize(P)
+    np.testing.assert_allclose(Pn.mean(axis=0), 0.0, atol=1e-14)
+    assert np.linalg.norm(Pn, axis=1).max() == pytest.approx(1.0, abs=1e-14)
+    np.testing.assert_allclose(center, P.mean(axis=0))
+    np.testing.assert_allclose(Pn * scale + center, P, atol=1e-12)
+    with pytest.raises(ValueError, match=r"P: expected shape \(N, 3\) with N >= 1, got \(0, 3\)"):
+        normalize(np.zeros((0, 3)))
+    with pytest.raises(ValueError, match="P: cannot normalize, scale is 0.0"):
+        normalize(np.ones((5, 3)))
+
+
+# --------------------------------------------------------------------------- fingerprint
+
+
+def test_fingerprint_identifies_the_float64_coordinates():
+    import hashlib
+
+    V = _saddle()
+    assert fingerprint(V) == hashlib.sha1(V.astype(np.float64).tobytes()).hexdigest()
+    assert fingerprint(V.tolist()) == fingerprint(V)  # the values, not the container
+    assert fingerprint(np.asfortranarray(V)) == fingerprint(V)  # nor the memory layout
+    W = V.copy()
+    W[3, 2] = np.nextafter(W[3, 2], np.inf)  # one ulp
+    assert fingerprint(W) != fingerprint(V)
+    assert fingerprint(V[::-1]) != fingerprint(V)  # row order is part of the input
