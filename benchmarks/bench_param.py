@@ -47,7 +47,7 @@ SUBPROCESS_ENV["PYTHONPATH"] = os.pathsep.join(
 
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
-from bench_schedules import schedules_section  # noqa: E402
+from sections import carry_sections  # noqa: E402
 
 import pcgeom  # noqa: E402
 from pcgeom.apps.baselines import BASELINES  # noqa: E402
@@ -492,9 +492,9 @@ def main(argv: list[str] | None = None) -> int:
 
     env["load_average_end"] = _loadavg()
     text = render(results, env, args, command, date, startup)
-    # bench_schedules.py keeps its own section in the same file: carry it over.
-    kept = schedules_section(args.out.read_text(encoding="utf-8")) if args.out.exists() else None
-    write_text(args.out, text if kept is None else text.rstrip("\n") + "\n\n" + kept + "\n")
+    # bench_schedules.py and gpu_section.py keep their own sections in the same file.
+    old = args.out.read_text(encoding="utf-8") if args.out.exists() else ""
+    write_text(args.out, carry_sections(old, text))
     log(f"wrote {args.out}")
     if args.json is not None:
         payload = {

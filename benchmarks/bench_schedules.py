@@ -29,17 +29,7 @@ from pcgeom.config import get_preset  # noqa: E402
 from pcgeom.examples import EXAMPLES, load_example  # noqa: E402
 from pcgeom.io import write_atomic  # noqa: E402
 from pcgeom.train import parametrize, resolve_device  # noqa: E402
-
-BEGIN = "<!-- bench_schedules: begin -->"
-END = "<!-- bench_schedules: end -->"
-
-
-def schedules_section(text: str) -> str | None:
-    """The part of ``text`` from BEGIN to END, markers included; None without them."""
-    if BEGIN in text and END in text:
-        return text[text.index(BEGIN): text.index(END) + len(END)]
-    return None
-
+from sections import put_section  # noqa: E402
 
 def run(name: str, config, V, F, device, seed: int) -> list[dict]:
     """Per-stage rows: the stage's history record, cumulative seconds, and map_report."""
@@ -94,7 +84,6 @@ def main(argv=None) -> int:
     paper_rows = run("paper", scaled, V, F, device, args.seed)
 
     lines = [
-        BEGIN,
         "## The paper's schedule against `fast`, stage by stage",
         "",
         f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC; "
@@ -119,12 +108,10 @@ def main(argv=None) -> int:
         f"Time to the final map, same run: `fast` {fast_rows[-1]['elapsed']:.0f} s, "
         f"`paper` x {args.epoch_fraction:g} {paper_rows[-1]['elapsed']:.0f} s "
         f"(ratio {paper_rows[-1]['elapsed'] / fast_rows[-1]['elapsed']:.1f}).",
-        END,
     ]
     section = "\n".join(lines)
     text = args.out.read_text(encoding="utf-8") if args.out.exists() else "# Benchmarks\n"
-    old = schedules_section(text)
-    text = text.replace(old, section) if old else text.rstrip("\n") + "\n\n" + section + "\n"
+    text = put_section(text, "bench_schedules", section)
     write_atomic(args.out, lambda f: f.write(text.encode("utf-8")))
     print(section)
     return 0
