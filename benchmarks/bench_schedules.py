@@ -27,9 +27,8 @@ import torch  # noqa: E402
 from pcgeom.apps.evaluate import map_report  # noqa: E402
 from pcgeom.config import get_preset  # noqa: E402
 from pcgeom.examples import EXAMPLES, load_example  # noqa: E402
-from pcgeom.io import write_atomic  # noqa: E402
 from pcgeom.train import parametrize, resolve_device  # noqa: E402
-from sections import put_section  # noqa: E402
+from sections import write_section  # noqa: E402
 
 def run(name: str, config, V, F, device, seed: int) -> list[dict]:
     """Per-stage rows: the stage's history record, cumulative seconds, and map_report."""
@@ -110,9 +109,7 @@ def main(argv=None) -> int:
         f"(ratio {paper_rows[-1]['elapsed'] / fast_rows[-1]['elapsed']:.1f}).",
     ]
     section = "\n".join(lines)
-    text = args.out.read_text(encoding="utf-8") if args.out.exists() else "# Benchmarks\n"
-    text = put_section(text, "bench_schedules", section)
-    write_atomic(args.out, lambda f: f.write(text.encode("utf-8")))
+    write_section(args.out, "bench_schedules", section)
     print(section)
     return 0
 

@@ -18,8 +18,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))  # this checkout's pcgeom, installed or not
 
-from pcgeom.io import write_atomic  # noqa: E402
-from sections import put_section  # noqa: E402
+from sections import write_section  # noqa: E402
 
 
 def _group(label: str) -> str:
@@ -77,9 +76,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"gpu_section.py: runs failed: {', '.join(failed)}", file=sys.stderr)
         return 1
     section = render(runs, args.env.read_text())
-    text = args.out.read_text(encoding="utf-8") if args.out.exists() else "# Benchmarks\n"
-    text = put_section(text, "gpu", section)
-    write_atomic(args.out, lambda f: f.write(text.encode("utf-8")))
+    write_section(args.out, "gpu", section)
     print(section)
     return 0
 

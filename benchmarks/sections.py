@@ -7,6 +7,8 @@ rewrites the file and carries every other script's section; ``bench_schedules.py
 
 from __future__ import annotations
 
+from pathlib import Path
+
 SECTIONS = ("bench_schedules", "gpu")
 """Sections written by scripts other than bench_param.py, in file order."""
 
@@ -36,3 +38,12 @@ def carry_sections(old_text: str, new_text: str) -> str:
     """``new_text`` followed by every section of :data:`SECTIONS` found in ``old_text``."""
     kept = [s for s in (find_section(old_text, name) for name in SECTIONS) if s]
     return "\n\n".join([new_text.rstrip("\n"), *kept]) + "\n"
+
+
+def write_section(path: Path, name: str, body: str) -> None:
+    """Replace (or append) section ``name`` of the file at ``path``, atomically."""
+    from pcgeom.io import write_atomic  # the caller has put this checkout on sys.path
+
+    text = path.read_text(encoding="utf-8") if path.exists() else "# Benchmarks\n"
+    text = put_section(text, name, body)
+    write_atomic(path, lambda f: f.write(text.encode("utf-8")))

@@ -17,7 +17,7 @@ import torch
 import pcgeom.cli.param as param_command
 from pcgeom import ParamResult, __version__, cli, parametrize
 from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
-from pcgeom.domains import Disk
+from pcgeom.domains import DOMAINS, Disk, Smile
 from pcgeom.examples import peaks_surface
 from pcgeom.io import read_points, write_ply_atomic
 from pcgeom.metrics import angle_distortion, domain_hausdorff
@@ -138,7 +138,12 @@ def test_bad_input_file(tmp_path, monkeypatch, capsys, no_training, case):
 @pytest.mark.parametrize(
     "options, message",
     [
-        (["--domain", "square"], "unknown domain 'square'; choose one of: free, disk"),
+        (["--domain", "hexagon"], "unknown domain 'hexagon'; choose one of: free, disk, square, "
+                                  "rect, annulus, smile, car, polygon"),
+        (["--domain", "annulus:1.2"],
+         "domain 'annulus:1.2': inner: expected a radius below outer = 1.0, got 1.2"),
+        (["--domain", "rect:0"], "domain 'rect:0': aspect: expected a positive finite number"),
+        (["--domain", "nowhere.json"], "nowhere.json: no such file"),
         (["--domain", "disk:big"], "domain 'disk:big': expected numbers after 'disk:'"),
         (["--domain", "disk:-1"], "domain 'disk:-1': radius: expected a positive finite number"),
         (["--domain", "free:2"], "domain 'free:2': free takes no values; got 1 value(s)"),
@@ -226,6 +231,7 @@ def test_help_has_examples(capsys):
     assert cli.main(["param", "--help"]) == 0
     out = capsys.readouterr().out
     assert "examples:" in out and "--resume" in out and "free, disk" in out
+    assert "smile, car" in out and "PATH.json" in out and "rect:2" in out
     assert cli.main(["evaluate", "--help"]) == 0
     assert "pcgeom evaluate mesh.ply mesh_uv.npz" in capsys.readouterr().out
 
@@ -378,7 +384,7 @@ def test_resume_from_foreign_checkpoint_is_an_error(tmp_path, capsys, tiny):
                 progress=False)
     assert ckpt.exists()
     _fails(capsys, ["param", str(src), "--resume", "--quiet"],
-           "scan_uv.ckpt: checkpoint is from a different input, config or seed")
+           "scan_uv.ckpt: checkpoint is from a different input, domain, landmarks, config or seed")
     assert _files(tmp_path) == {"scan.txt", "scan_uv.ckpt"}
 
 
@@ -494,3 +500,81 @@ def test_python_dash_m_pcgeom_works_like_pcgeom():
                           text=True, timeout=120)
     assert done.returncode == 0
     assert done.stdout.strip() == f"pcgeom {__version__}"
+
+
+# --------------------------------------------------------------------------- pcgeom domains
+
+
+def test_domains_lists_every_registered_domain(capsys):
+    assert cli.main(["domains"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    assert [line.split()[0].split(":")[0] for line in lines] == list(DOMAINS)
+    assert any(line.startswith("annulus:inner,outer ") and "area 2.3562" in line
+               for line in lines)
+    assert any(line.startswith("smile ") and "smiling face" in line for line in lines)
+    assert cli.main(["domains", "list", "--json"]) == 0
+    listing = json.loads(capsys.readouterr().out)
+    rows = {row["name"]: row for row in listing["domains"]}
+    assert list(rows) == list(DOMAINS)
+    assert rows["rect"]["spec_args"] == ["aspect", "size"]
+    assert rows["disk"]["area"] == pytest.approx(np.pi)
+    assert rows["smile"]["area"] == pytest.approx(Smile().area)
+    assert rows["free"]["area"] is None and rows["polygon"]["area"] is None
+    assert all(row["description"] for row in rows.values())
+
+
+def test_domains_show_writes_a_png(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["domains", "show", "smile", "-o", "smile.png"]) == 0
+    assert capsys.readouterr().out == "smile: area 2.6232, 4 boundary loop(s) -> smile.png\n"
+    assert (tmp_path / "smile.png").read_bytes()[:8] == PNG_SIGNATURE
+    room = tmp_path / "room.json"
+    room.write_text(json.dumps({"type": "Polygon", "coordinates": [
+        [[0, 0], [2, 0], [2, 1], [0, 1]], [[0.5, 0.25], [1, 0.25], [1, 0.75]]]}))
+    assert cli.main(["domains", "show", "room.json", "-o", "room.png", "--n", "300",
+                     "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["boundary_loops"] == 2 and summary["area"] == pytest.approx(2.0 - 0.125)
+    assert json.loads(summary["domain"])["name"] == "polygon"
+    assert (tmp_path / "room.png").read_bytes()[:8] == PNG_SIGNATURE
+    assert _files(tmp_path) == {"smile.png", "room.json", "room.png"}
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["domains", "show", "hexagon", "-o", "x.png"], "unknown domain 'hexagon'; choose one of"),
+        (["domains", "show", "annulus:1.2", "-o", "x.png"],
+         "domain 'annulus:1.2': inner: expected a radius below outer = 1.0, got 1.2"),
+        (["domains", "show", "rect:0", "-o", "x.png"],
+         "domain 'rect:0': aspect: expected a positive finite number, got 0.0"),
+        (["domains", "show", "free", "-o", "x.png"], "domain 'free' has no region to draw"),
+        (["domains", "show", "nowhere.json", "-o", "x.png"],
+         "nowhere.json: no such file"),
+        (["domains", "show", "car", "-o", "x.jpg"],
+         "x.jpg: output must have extension '.png', got '.jpg'"),
+        (["domains", "show", "car", "-o", "missing/x.png"],
+         "output directory 'missing' does not exist"),
+        (["domains", "show", "car"], "show needs an output file: -o OUT.png"),
+        (["domains", "show"], "show needs a domain: pcgeom domains show SPEC -o OUT.png"),
+        (["domains", "car"], "argument ACTION: invalid choice: 'car'"),
+        (["domains", "list", "car"], "'pcgeom domains' lists the domains; to draw one"),
+        (["domains", "show", "car", "-o", "x.png", "--n", "0"],
+         "argument --n: expected a positive integer, got 0"),
+    ],
+)
+def test_domains_errors(tmp_path, monkeypatch, capsys, argv, message):
+    monkeypatch.chdir(tmp_path)
+    _fails(capsys, argv, message)
+    assert _files(tmp_path) == set()
+
+
+def test_domains_command_has_its_own_main(capsys):
+    from pcgeom.cli import domains as domains_command
+
+    assert domains_command.main(["--help"]) == 0
+    out = capsys.readouterr().out
+    assert "usage: pcgeom domains" in out and "pcgeom domains show smile -o smile.png" in out
+    assert domains_command.main(["show", "car"]) == 2
+    assert capsys.readouterr().err == "pcgeom: error: show needs an output file: -o OUT.png\n"

@@ -60,7 +60,8 @@ def test_io_exports():
 
     assert set(pio.__all__) == {"InputError", "PointCloud", "SUPPORTED_EXTENSIONS", "read_points",
                                 "write_ply_atomic", "check_writable", "write_atomic",
-                                "save_npz_atomic", "ParamResult"}
+                                "save_npz_atomic", "ParamResult", "LandmarkPair",
+                                "read_landmarks"}
     assert all(hasattr(pio, name) for name in pio.__all__)
     # Array preparation lives in pcgeom.cloud, not here.
     for name in ("validate_points", "deduplicate", "normalize"):

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pcgeom.apps.plot import plot_angle_histogram, plot_history, plot_map
-from pcgeom.domains import Disk
+from pcgeom.apps.plot import plot_angle_histogram, plot_domain, plot_history, plot_map
+from pcgeom.domains import Disk, FreeBoundary, Smile
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -57,6 +57,38 @@ def test_plot_map_draws_red_domain_boundary(tmp_path):
     plot_map(uv, tmp_path / "without.png")
     assert red_pixels(tmp_path / "with.png") > 100
     assert red_pixels(tmp_path / "without.png") == 0
+
+
+def _red_pixels(path) -> int:
+    import matplotlib.image
+
+    img = matplotlib.image.imread(path)[..., :3]
+    return int(((img[..., 0] > 0.9) & (img[..., 1] < 0.2) & (img[..., 2] < 0.2)).sum())
+
+
+def test_plot_map_draws_every_boundary_loop(tmp_path):
+    """The smiling face's eyes and mouth are drawn too: its loops are 1.7x the circle's length."""
+    uv = Disk().sample(200) * 0.5
+    plot_map(uv, tmp_path / "disk.png", domain=Disk())
+    plot_map(uv, tmp_path / "smile.png", domain=Smile())
+    assert _red_pixels(tmp_path / "smile.png") > 1.3 * _red_pixels(tmp_path / "disk.png")
+
+
+def test_plot_domain(tmp_path):
+    path = plot_domain(Smile(), tmp_path / "smile.png", n=500)
+    assert path == tmp_path / "smile.png"
+    _assert_png(path)
+    assert _red_pixels(path) > 100
+
+
+def test_plot_domain_rejects_bad_input(tmp_path):
+    with pytest.raises(ValueError, match="domain 'free' has no region to draw"):
+        plot_domain(FreeBoundary(), tmp_path / "free.png")
+    with pytest.raises(ValueError, match="n: expected a positive count, got 0"):
+        plot_domain(Disk(), tmp_path / "disk.png", n=0)
+    with pytest.raises(ValueError, match="expected extension '.png', got '.jpg'"):
+        plot_domain(Disk(), tmp_path / "disk.jpg")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_plot_map_overwrites_existing_file(tmp_path):

@@ -16,7 +16,7 @@ import pytest
 
 from pcgeom import __version__
 from pcgeom.config import get_preset
-from pcgeom.domains import Disk, FreeBoundary
+from pcgeom.domains import Annulus, Disk, FreeBoundary, PolygonDomain, Smile
 from pcgeom.errors import InputError
 from pcgeom.io import ParamResult
 
@@ -86,8 +86,14 @@ def _rewrite(path, **replace) -> None:
         {"domain": FreeBoundary(), "faces": None},
         {"seed": 0, "fingerprint": None},
         {"seed": None, "domain": None, "history": []},
+        {"domain": Annulus(inner=0.4)},
+        {"domain": Smile()},
+        # A user polygon: the file stores its coordinates, not the path it was read from.
+        {"domain": PolygonDomain(shell=((0, 0), (2, 0), (2, 1), (0, 1)),
+                                 holes=(((0.5, 0.25), (1, 0.25), (1, 0.75)),))},
     ],
-    ids=["off-centre-disk", "unit-disk", "free-no-faces", "seed-0-no-fingerprint", "unknowns"],
+    ids=["off-centre-disk", "unit-disk", "free-no-faces", "seed-0-no-fingerprint", "unknowns",
+         "annulus", "smile", "polygon"],
 )
 def test_save_load_round_trips_every_field(tmp_path, changes):
     res = _result(**changes)
@@ -230,6 +236,7 @@ def test_load_refuses_pickled_objects(tmp_path):
 
 def test_load_rejects_an_unknown_domain(tmp_path):
     path = _result().save(tmp_path / "map.npz")
-    _rewrite(path, domain_json=np.str_('{"name": "square", "side": 2}'))
-    with pytest.raises(InputError, match=r"unknown domain 'square'; choose one of: free, disk"):
+    _rewrite(path, domain_json=np.str_('{"name": "hexagon", "side": 2}'))
+    with pytest.raises(InputError, match=r"unknown domain 'hexagon'; choose one of: free, disk, "
+                                         r"square, rect, annulus, smile, car, polygon"):
         ParamResult.load(path)

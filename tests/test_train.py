@@ -440,7 +440,7 @@ def _load(path):
 
 
 _STATE_KEYS = {"networks", "gen", "torch_rng", "history", "next_stage", "fingerprint", "config",
-               "seed"}
+               "seed", "domain", "landmarks"}
 
 
 def test_checkpoint_resume_reproduces_the_uninterrupted_run(tmp_path, peaks):
@@ -453,6 +453,7 @@ def test_checkpoint_resume_reproduces_the_uninterrupted_run(tmp_path, peaks):
     assert set(state) == _STATE_KEYS
     assert state["next_stage"] == 2 and len(state["history"]) == 2
     assert state["config"] == cfg.to_dict() and state["seed"] == 3
+    assert state["domain"] == Disk().to_dict() and state["landmarks"] == []
     assert state["fingerprint"] == fingerprint(V)
 
     ckpt = tmp_path / "r.ckpt"
@@ -485,16 +486,20 @@ def test_resume_from_a_different_run_is_refused(tmp_path, peaks):
     cfg = _tiny(max_stages=1, refine=RefineConfig(steps=0))
     ckpt = tmp_path / "r.ckpt"
     parametrize(V, Disk(), config=cfg, device="cpu", seed=0, checkpoint=ckpt, progress=False)
+    same = dict(points=V, domain=Disk(), config=cfg, seed=0, landmarks=())
     others = [
-        dict(points=V, config=cfg, seed=1),
-        dict(points=V, config=dataclasses.replace(cfg, domain_samples=512), seed=0),
-        dict(points=V + 1e-3, config=cfg, seed=0),
+        same | dict(seed=1),
+        same | dict(config=dataclasses.replace(cfg, domain_samples=512)),
+        same | dict(points=V + 1e-3),
+        same | dict(domain=Disk(radius=0.5)),
+        same | dict(landmarks=[(V[:3], np.zeros((2, 2)))]),
     ]
     for other in others:
-        with pytest.raises(InputError,
-                           match="checkpoint is from a different input, config or seed"):
-            parametrize(other["points"], Disk(), config=other["config"], device="cpu",
-                        seed=other["seed"], checkpoint=ckpt, resume=True, progress=False)
+        with pytest.raises(InputError, match="checkpoint is from a different input, domain, "
+                                             "landmarks, config or seed"):
+            parametrize(other["points"], other["domain"], config=other["config"], device="cpu",
+                        seed=other["seed"], landmarks=other["landmarks"], checkpoint=ckpt,
+                        resume=True, progress=False)
 
 
 def _leave_marker(path: str) -> dict:
@@ -679,8 +684,9 @@ def test_domain_none_is_a_type_error_pointing_to_free(peaks, monkeypatch):
                         lambda *a, **k: pytest.fail("training started"))
     with pytest.raises(TypeError, match="the free boundary is 'free'"):
         parametrize(V, None, config=_tiny(), progress=False)
-    with pytest.raises(InputError, match=r"^unknown domain 'square'; choose one of: free, disk$"):
-        parametrize(V, "square", config=_tiny(), progress=False)
+    with pytest.raises(InputError, match=r"^unknown domain 'hexagon'; choose one of: free, disk, "
+                                         r"square, rect, annulus, smile, car, polygon$"):
+        parametrize(V, "hexagon", config=_tiny(), progress=False)
 
 
 # --------------------------------------------------------------------------- callbacks, input

@@ -1,4 +1,5 @@
-"""Figures: a 2D map coloured by a per-point value, per-stage loss curves, angle histograms.
+"""Figures: a 2D map coloured by a per-point value, a parameter domain, per-stage loss curves,
+angle histograms.
 
 matplotlib is imported inside each function (it is slow to import and only figures need it),
 and figures are built with :class:`matplotlib.figure.Figure` on the Agg canvas, never through
@@ -19,7 +20,7 @@ import numpy as np
 from ..io.atomic import write_atomic
 from ..train.objective import LOSS_TERMS
 
-__all__ = ["plot_map", "plot_history", "plot_angle_histogram"]
+__all__ = ["plot_map", "plot_domain", "plot_history", "plot_angle_histogram"]
 
 
 def _new_figure(figsize: tuple[float, float]):
@@ -58,8 +59,8 @@ def plot_map(U, path, values=None, domain=None, title: str | None = None) -> Pat
         Colour of each point (e.g. ``lambda_inv``), shown with a colourbar. Uniform colour when
         omitted.
     domain : pcgeom.domains.Domain, optional
-        Target domain; a bounded domain's boundary (``domain.boundary(n)``) is drawn as a
-        closed red curve.
+        Target domain; a bounded domain's boundary loops (``domain.boundary_loops()``) are
+        drawn as closed red curves.
     title : str, optional
         Axes title.
 
@@ -94,15 +95,69 @@ def plot_map(U, path, values=None, domain=None, title: str | None = None) -> Pat
         sc = ax.scatter(U[:, 0], U[:, 1], s=size, c=values, cmap="viridis", linewidths=0)
         fig.colorbar(sc, ax=ax, shrink=0.85)
     if domain is not None and domain.bounded:
-        b = np.asarray(domain.boundary(400), dtype=np.float64)  # (400, 2)
-        closed = np.vstack([b, b[:1]])
-        ax.plot(closed[:, 0], closed[:, 1], color="red", linewidth=1.2)
+        _draw_loops(ax, domain)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("u")
     ax.set_ylabel("v")
     if title:
         ax.set_title(title)
     return _save_png_atomic(fig, path)
+
+
+def _draw_loops(ax, domain) -> None:
+    """Each boundary loop of ``domain`` as a closed red curve."""
+    for loop in domain.boundary_loops():
+        loop = np.asarray(loop, dtype=np.float64)  # (k, 2), closed
+        ax.plot(loop[:, 0], loop[:, 1], color="red", linewidth=1.2)
+
+
+def plot_domain(domain, path, n: int = 2000, seed: int = 0, title: str | None = None) -> Path:
+    """A parameter domain: its boundary loops over a light scatter of its sample.
+
+    Parameters
+    ----------
+    domain : pcgeom.domains.Domain
+        A bounded domain.
+    path : str or os.PathLike
+        Output ``.png`` file, written atomically.
+    n : int
+        Number of sample points drawn (``domain.sample(n, seed)``, what training uses).
+    seed : int
+        Sample seed.
+    title : str, optional
+        Axes title (default: the domain's spec and area).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        The free boundary (no region to draw), ``n < 1``, or a path without the ``.png``
+        extension.
+    """
+    if not domain.bounded:
+        raise ValueError(f"domain {domain.name!r} has no region to draw")
+    S = domain.sample(n, seed=seed)  # (n, 2); ValueError for a bad n
+    fig = _new_figure((6.0, 5.4))
+    ax = fig.add_subplot()
+    size = float(np.clip(8000.0 / len(S), 0.5, 8.0))
+    ax.scatter(S[:, 0], S[:, 1], s=size, c="tab:blue", alpha=0.35, linewidths=0)
+    _draw_loops(ax, domain)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("u")
+    ax.set_ylabel("v")
+    ax.set_title(title if title is not None else
+                 f"{_short_spec(domain)}: area {domain.area:.4g}, "
+                 f"{len(domain.boundary_loops())} boundary loop(s)")
+    return _save_png_atomic(fig, path)
+
+
+def _short_spec(domain, limit: int = 40) -> str:
+    """The domain's spec, or its name when the spec is long (a polygon's coordinates)."""
+    return domain.spec if len(domain.spec) <= limit else domain.name
 
 
 def _positive_or_nan(x) -> float:

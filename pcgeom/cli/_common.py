@@ -11,7 +11,7 @@ from types import ModuleType
 
 from ..errors import InputError
 
-__all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "seed",
+__all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "int_at_least", "seed",
            "distinct_paths", "print_angles", "add_command", "standalone_parser", "run_command"]
 
 EXIT_OK = 0
@@ -27,15 +27,25 @@ class Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"pcgeom: error: {message} (see '{self.prog} --help')\n")
 
 
-def seed(text: str) -> int:
-    """argparse type of ``--seed``: a non-negative int."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
-    return value
+def int_at_least(minimum: int):
+    """An argparse type: an int >= ``minimum`` (0: "non-negative", 1: "positive")."""
+    what = {0: "a non-negative integer", 1: "a positive integer"}.get(
+        minimum, f"an integer >= {minimum}")
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+        return value
+
+    return parse
+
+
+seed = int_at_least(0)
+"""argparse type of ``--seed``: a non-negative int."""
 
 
 def distinct_paths(inputs: dict[str, str | None], outputs: dict[str, Path | None]) -> None:

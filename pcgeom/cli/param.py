@@ -20,7 +20,7 @@ from ..config import PRESETS, get_preset
 from ..domains import DOMAINS, get_domain
 from ..errors import InputError
 from ..examples import EXAMPLES, load_example
-from ..io import check_writable, read_points, write_ply_atomic
+from ..io import check_writable, read_landmarks, read_points, write_ply_atomic
 from ..train import LOSS_TERMS, parametrize, resolve_device
 from ._common import EXIT_OK, distinct_paths, print_angles, run_command, seed, standalone_parser
 
@@ -36,8 +36,12 @@ examples:
       built-in three-peaks surface; also reports angle distortion against its mesh
   pcgeom param scan.ply --domain disk --out scan_uv.npz --out-ply scan_uv.ply
       map onto the unit disk; the PLY holds the mapped points (z = 0) and the input faces
+  pcgeom param face.ply --domain smile --plot face_uv.png
+      onto the smiling face (unit disk minus two eyes and a mouth); see 'pcgeom domains'
   pcgeom param scan.xyz --preset paper --device cuda --seed 3 --quiet --json
       the paper's full schedule on a GPU; one JSON object on stdout for scripts
+  pcgeom param scan.ply --domain disk --landmarks marks.json
+      map onto the disk with landmark pairs (see README, "Landmark files")
   pcgeom param scan.xyz --resume
       continue an interrupted run from scan_uv.ckpt (same input, preset and seed)
 
@@ -55,8 +59,13 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--example", metavar="NAME",
                    help=f"use a built-in surface instead of INPUT: {', '.join(EXAMPLES)}")
     p.add_argument("--domain", default="free", metavar="SPEC",
-                   help=f"parameter domain: {', '.join(DOMAINS)}, or NAME:VALUES such as "
-                        "disk:0.5 (default: free boundary)")
+                   help=f"parameter domain: {', '.join(n for n in DOMAINS if n != 'polygon')}, "
+                        "NAME:VALUES such as disk:0.5, rect:2 or annulus:0.4, or PATH.json "
+                        "(a polygon with holes, GeoJSON-style); 'pcgeom domains' lists them "
+                        "(default: free boundary)")
+    p.add_argument("--landmarks", metavar="FILE.json",
+                   help="landmark pairs: points of the input (indices or 3D points) and their "
+                        "targets in the domain (points or polylines); needs a domain")
     p.add_argument("--preset", default="fast", metavar="NAME",
                    help=f"training preset: {', '.join(PRESETS)} (default: fast)")
     p.add_argument("--device", default="auto", metavar="DEV",
@@ -98,7 +107,7 @@ def _check_outputs(args, default_out: Path) -> dict[str, Path | None]:
         "plot": check_writable(args.plot, "png") if args.plot else None,
     }
     outs["checkpoint"] = check_writable(outs["out"].with_suffix(".ckpt"), "ckpt")
-    distinct_paths({"INPUT": args.input}, outs)
+    distinct_paths({"INPUT": args.input, "--landmarks": args.landmarks}, outs)
     return outs
 
 
@@ -109,10 +118,17 @@ def run(args) -> int:
     config = get_preset(args.preset)
     device = resolve_device(args.device)
     points, faces, name, default_out = _load_input(args)
+    landmarks = []
+    if args.landmarks is not None:
+        if not domain.bounded:
+            raise InputError("--landmarks needs a parameter domain; add --domain disk "
+                             "(or another domain)")
+        landmarks = [(points[pair.indices], pair.targets)
+                     for pair in read_landmarks(args.landmarks, points)]
     outs = _check_outputs(args, default_out)
 
-    result = parametrize(points, domain, config=config, device=device, seed=args.seed,
-                         checkpoint=outs["checkpoint"], resume=args.resume,
+    result = parametrize(points, domain, config=config, landmarks=landmarks, device=device,
+                         seed=args.seed, checkpoint=outs["checkpoint"], resume=args.resume,
                          progress=not args.quiet)
     result.faces = faces
     result.save(outs["out"])
@@ -145,6 +161,7 @@ def run(args) -> int:
         "version": result.version,
         "seconds": float(result.seconds),
         "loss": {k: float(final[k]) for k in LOSS_TERMS if k in final},
+        "landmark_hausdorff": final.get("landmark_hausdorff"),
         "evaluation": evaluation,
         "domain_hausdorff": report["domain_hausdorff"],
     }
@@ -159,6 +176,9 @@ def run(args) -> int:
     if summary["domain_hausdorff"] is not None:
         print(f"Hausdorff distance of the map to the {domain.spec} domain: "
               f"{summary['domain_hausdorff']:.4f}")
+    if summary["landmark_hausdorff"] is not None:
+        print("Hausdorff distance of each landmark set to its targets: "
+              + ", ".join(f"{d:.4f}" for d in summary["landmark_hausdorff"]))
     if evaluation is not None:
         print_angles(report)
     return EXIT_OK

@@ -1,9 +1,10 @@
 """Parameter domains: 2D regions the cloud is mapped onto, looked up by a spec.
 
-A spec is a name (``"free"``, ``"disk"``), a name with values for the domain's ``spec_args``
-(``"disk:0.5"``: the disk of radius 0.5), a dict ``{"name": ..., **parameters}`` (what result
-files store, from :meth:`Domain.to_dict`), or a :class:`Domain` itself. New domains register
-their class in :data:`DOMAINS`.
+A spec is a name (``"free"``, ``"disk"``, ``"smile"``), a name with values for the domain's
+``spec_args`` (``"disk:0.5"``: the disk of radius 0.5; ``"rect:2"``: aspect 2), the path of a
+GeoJSON-style polygon file (``"room.json"``), a dict ``{"name": ..., **parameters}`` (what
+result files store, from :meth:`Domain.to_dict`), or a :class:`Domain` itself. New domains
+register their class in :data:`DOMAINS`.
 """
 
 from __future__ import annotations
@@ -15,10 +16,16 @@ from ..errors import InputError
 from .base import Domain
 from .disk import Disk
 from .free import FreeBoundary
+from .polygon import PolygonDomain
+from .region import ShapelyDomain
+from .shapes import Annulus, Car, Rect, Smile, Square
 
-__all__ = ["Domain", "FreeBoundary", "Disk", "DOMAINS", "get_domain"]
+__all__ = ["Domain", "ShapelyDomain", "FreeBoundary", "Disk", "Square", "Rect", "Annulus",
+           "Smile", "Car", "PolygonDomain", "DOMAINS", "get_domain"]
 
-DOMAINS: dict[str, type[Domain]] = {cls.name: cls for cls in (FreeBoundary, Disk)}
+DOMAINS: dict[str, type[Domain]] = {
+    cls.name: cls for cls in (FreeBoundary, Disk, Square, Rect, Annulus, Smile, Car, PolygonDomain)
+}
 """Registry: domain name -> class (constructed with its parameters)."""
 
 
@@ -29,7 +36,8 @@ def get_domain(spec) -> Domain:
     ----------
     spec : str, dict or Domain
         ``"name"`` (default parameters), ``"name:v1,v2"`` (numbers for the class's
-        ``spec_args``, e.g. ``"disk:0.5"``), ``{"name": ..., **parameters}`` as written by
+        ``spec_args``, e.g. ``"disk:0.5"``), a path ending in ``.json`` (a polygon file, read
+        by :meth:`PolygonDomain.from_json`), ``{"name": ..., **parameters}`` as written by
         :meth:`Domain.to_dict` (or its JSON text, as :attr:`Domain.spec` gives it), or a
         :class:`Domain`, returned as is.
 
@@ -37,7 +45,8 @@ def get_domain(spec) -> Domain:
     ------
     InputError
         Unknown name (the message lists the registered ones), wrong number of values, a value
-        that is not a number, unknown parameters, or parameters the domain rejects.
+        that is not a number, unknown parameters, parameters the domain rejects, or a polygon
+        file that cannot be read or holds no valid polygon.
     TypeError
         ``spec`` is none of the above (e.g. None: the free boundary is ``"free"``).
     """
@@ -48,6 +57,8 @@ def get_domain(spec) -> Domain:
             spec = json.loads(spec)
         except ValueError:
             raise InputError(f"domain {spec!r}: not valid JSON") from None
+    if isinstance(spec, str) and spec.strip().lower().endswith(".json"):
+        return PolygonDomain.from_json(spec.strip())
     if isinstance(spec, str):
         name, _, args = spec.partition(":")
         cls = _lookup(name)

@@ -37,7 +37,9 @@ class Domain(abc.ABC):
 
     Subclasses set ``name`` (the registry name of :func:`pcgeom.domains.get_domain`) and
     ``spec_args`` (the fields that the short spec ``"name:a,b"`` sets, in order), and implement
-    :meth:`sample`, :meth:`boundary`, :meth:`contains`, :attr:`area` and :attr:`centroid`.
+    :meth:`sample`, :meth:`boundary`, :meth:`boundary_loops`, :meth:`contains`,
+    :meth:`signed_distance`, :attr:`area` and :attr:`centroid`. The first line of a subclass's
+    docstring is its one-line description in ``pcgeom domains``.
     """
 
     name: ClassVar[str]
@@ -67,11 +69,26 @@ class Domain(abc.ABC):
 
     @abc.abstractmethod
     def boundary(self, n: int) -> np.ndarray:
-        """Points on the boundary, evenly spaced by arc length, counter-clockwise.
+        """Points on the boundary, evenly spaced by arc length along each boundary loop.
+
+        The ``n`` points are shared among the loops of :meth:`boundary_loops` in proportion to
+        their lengths and listed loop by loop in the same order: the outer loop first,
+        counter-clockwise, then the holes, clockwise (the region is on the left).
 
         Returns
         -------
         (n, 2) float64
+        """
+
+    @abc.abstractmethod
+    def boundary_loops(self) -> list[np.ndarray]:
+        """The boundary as closed polylines, one per loop.
+
+        Returns
+        -------
+        list of (k, 2) float64
+            Each loop's last row repeats its first. The outer loop comes first,
+            counter-clockwise, then the holes, clockwise. Empty for the free boundary.
         """
 
     @abc.abstractmethod
@@ -85,6 +102,20 @@ class Domain(abc.ABC):
         Returns
         -------
         (K,) bool
+        """
+
+    @abc.abstractmethod
+    def signed_distance(self, P) -> np.ndarray:
+        """Euclidean distance to the boundary, negative inside the region, positive outside.
+
+        Parameters
+        ----------
+        P : (K, 2) array_like
+
+        Returns
+        -------
+        (K,) float64
+            0 on the boundary.
         """
 
     @property

@@ -14,7 +14,7 @@ __all__ = ["FreeBoundary"]
 
 @dataclass(frozen=True)
 class FreeBoundary(Domain):
-    """No parameter domain: the free-boundary map (LEG, and no HAND term).
+    """No parameter domain: the free-boundary map (LEG only, no HAND term).
 
     It has no region: :meth:`sample` and :meth:`boundary` return no points, every point is
     contained, and the area is infinite. Training checks :attr:`bounded` once, when it builds
@@ -34,9 +34,19 @@ class FreeBoundary(Domain):
         check_count(n)
         return np.zeros((0, 2))
 
+    def boundary_loops(self) -> list[np.ndarray]:
+        """No loops: ``[]``."""
+        return []
+
     def contains(self, P) -> np.ndarray:
         """Every point."""
         return np.ones(len(as_points2d(P)), dtype=bool)
+
+    def signed_distance(self, P) -> np.ndarray:
+        """Not defined: raises ``ValueError`` (the free boundary has no region)."""
+        as_points2d(P)
+        raise ValueError("domain 'free': no region, hence no signed distance; "
+                         "choose a bounded domain (e.g. disk)")
 
     @property
     def area(self) -> float:

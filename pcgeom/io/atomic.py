@@ -1,12 +1,14 @@
-"""Atomic writes: a temporary file beside the target, then ``os.replace``.
+"""Paths in and out: checks before any work, and atomic writes.
 
-An interrupted run never leaves a truncated or half-written output behind, and an existing
-file is only replaced by a complete new one. :func:`check_writable` checks an output path
-before any work starts.
+Writes go to a temporary file beside the target, then ``os.replace``: an interrupted run never
+leaves a truncated or half-written output behind, and an existing file is only replaced by a
+complete new one. :func:`check_writable` checks an output path and :func:`check_readable` an
+input path before any work starts; :func:`read_json` reads a small JSON input.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import secrets
 from collections.abc import Callable
@@ -17,7 +19,50 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["check_writable", "write_atomic", "save_npz_atomic"]
+__all__ = ["check_readable", "read_json", "check_writable", "write_atomic", "save_npz_atomic"]
+
+
+def _with_extension(path, ext: str, kind: str) -> Path:
+    """``path`` as a Path, or ``"<path>: <kind> must have extension '.ext', got ..."``."""
+    want = "." + ext.lower().lstrip(".")
+    p = Path(path)
+    if p.suffix.lower() != want:
+        got = repr(p.suffix) if p.suffix else "none"
+        raise InputError(f"{os.fspath(path)}: {kind} must have extension {want!r}, got {got}")
+    return p
+
+
+def check_readable(path, ext: str, kind: str) -> Path:
+    """``path`` as a Path, checked to be an existing file with extension ``.ext``.
+
+    Raises
+    ------
+    InputError
+        ``"<path>: <kind> must have extension '.ext', got ..."``, ``"<path>: no such file"``
+        or ``"<path>: not a regular file"``.
+    """
+    name = os.fspath(path)
+    path = _with_extension(path, ext, kind)
+    if not path.exists():
+        raise InputError(f"{name}: no such file")
+    if not path.is_file():
+        raise InputError(f"{name}: not a regular file")
+    return path
+
+
+def read_json(path, kind: str):
+    """The parsed content of a ``.json`` input file (:func:`check_readable` first).
+
+    Raises
+    ------
+    InputError
+        Wrong extension, missing, unreadable, or not valid JSON; one line naming the file.
+    """
+    path = check_readable(path, "json", kind)
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise InputError(f"{os.fspath(path)}: cannot parse: {' '.join(str(exc).split())}") from None
 
 
 def check_writable(path, ext: str) -> Path:
@@ -42,11 +87,7 @@ def check_writable(path, ext: str) -> Path:
         directory.
     """
     name = os.fspath(path)
-    path = Path(path)
-    want = "." + ext.lower().lstrip(".")
-    if path.suffix.lower() != want:
-        got = repr(path.suffix) if path.suffix else "none"
-        raise InputError(f"{name}: output must have extension {want!r}, got {got}")
+    path = _with_extension(path, ext, "output")
     parent = path.parent
     if not parent.is_dir():
         raise InputError(f"{name}: output directory {os.fspath(parent)!r} does not exist")

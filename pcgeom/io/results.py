@@ -39,7 +39,7 @@ from ..cloud import _one_line, validate_faces
 from ..config import ParamConfig, preset_name
 from ..domains import Domain, get_domain
 from ..errors import InputError
-from .atomic import check_writable, write_atomic
+from .atomic import check_readable, check_writable, write_atomic
 
 __all__ = ["ParamResult"]
 
@@ -143,12 +143,7 @@ class ParamResult:
             tool): the message names what is unknown.
         """
         name = os.fspath(path)
-        p = Path(path)
-        if p.suffix.lower() != ".npz":
-            got = repr(p.suffix) if p.suffix else "none"
-            raise InputError(f"{name}: map must have extension '.npz', got {got}")
-        if not p.is_file():
-            raise InputError(f"{name}: no such file")
+        p = check_readable(path, "npz", "map")
         try:
             with np.load(p, allow_pickle=False) as archive:
                 data = {key: archive[key] for key in archive.files}

@@ -2,8 +2,8 @@
 
 A checkpoint holds tensors, numbers, strings, lists and dicts only, and is loaded with
 ``torch.load(weights_only=True)``: a crafted ``.ckpt`` cannot execute anything, it fails to
-load. It also records the input's fingerprint, the config and the seed, and a run resumes only
-from a checkpoint of the same three.
+load. It also records the run's identity (the input's fingerprint, the config, the seed, the
+domain and the landmarks), and a run resumes only from a checkpoint of the same identity.
 """
 
 from __future__ import annotations
@@ -18,7 +18,6 @@ from ..io.atomic import write_atomic
 
 __all__ = ["save_checkpoint", "load_checkpoint"]
 
-_IDENTITY = ("fingerprint", "config", "seed")
 
 
 def save_checkpoint(path, state: dict) -> None:
@@ -26,8 +25,9 @@ def save_checkpoint(path, state: dict) -> None:
     write_atomic(Path(path), lambda f: torch.save(state, f))
 
 
-def load_checkpoint(path, *, fingerprint: str, config: dict, seed: int) -> dict:
-    """The state saved at ``path``, checked to come from this input, config and seed.
+def load_checkpoint(path, identity: dict) -> dict:
+    """The state saved at ``path``, checked to hold the same ``identity`` (plain data: the
+    input's fingerprint, config, seed, domain, landmarks) as the run that resumes it.
 
     Loaded onto the CPU: the RNG states must be CPU ByteTensors (``set_state`` rejects CUDA
     ones); ``load_state_dict`` then copies weights and optimizer state to the run's device.
@@ -43,10 +43,9 @@ def load_checkpoint(path, *, fingerprint: str, config: dict, seed: int) -> dict:
     except Exception as exc:  # pickle.UnpicklingError for code, RuntimeError for garbage, ...
         raise InputError(f"{path}: not a loadable pcgeom checkpoint ({_one_line(exc)[:200]}); "
                          "delete it to start over") from None
-    if not isinstance(state, dict) or not set(_IDENTITY) <= set(state):
+    if not isinstance(state, dict) or not set(identity) <= set(state):
         raise InputError(f"{path}: not a pcgeom checkpoint; delete it to start over")
-    expected = {"fingerprint": fingerprint, "config": config, "seed": seed}
-    if any(state[key] != expected[key] for key in _IDENTITY):
-        raise InputError(f"{path}: checkpoint is from a different input, config or seed; "
-                         "delete it to start over")
+    if any(state[key] != value for key, value in identity.items()):
+        raise InputError(f"{path}: checkpoint is from a different input, domain, landmarks, "
+                         "config or seed; delete it to start over")
     return state

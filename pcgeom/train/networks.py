@@ -11,7 +11,7 @@ from ..config import OptimizerConfig, ParamConfig
 from ..domains import Domain
 from ..nets import LambdaInvNet, ParamNet
 from .data import TrainData
-from .objective import Batch, Objective, StageLog, step
+from .objective import Batch, Objective, StageLog, landmark_fit, step
 from .plan import Stage
 
 __all__ = ["Networks", "build_networks", "initial_plane", "run_network_stage"]
@@ -98,8 +98,13 @@ def run_network_stage(stage: Stage, nets: Networks, data: TrainData, objective: 
             n_steps += 1
         log.read(terms, alpha=alpha)  # once per epoch: the last step's terms
         log.advance()
-    return log.record(
+    record = log.record(
         stage=stage.index + 1, kind="network", epochs=stage.epochs, steps=n_steps,
         sigma=stage.sigma, alpha_initial=stage.alpha_initial, alpha_final=stage.alpha_final,
         batch_points=stage.batch_points, batch_domain=stage.batch_domain,
     )
+    if data.landmark_points:
+        with torch.no_grad():
+            images = [f(p) for p in data.landmark_points]
+        record["landmark_hausdorff"] = landmark_fit(images, data.landmark_targets)
+    return record

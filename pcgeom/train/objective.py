@@ -20,8 +20,9 @@ import torch
 
 from ..config import LossWeights
 from ..losses import hand, landmark_hand, leg
+from ..metrics import hausdorff
 
-__all__ = ["LOSS_TERMS", "Batch", "Objective", "step", "StageLog"]
+__all__ = ["LOSS_TERMS", "Batch", "Objective", "step", "StageLog", "landmark_fit"]
 
 LOSS_TERMS = ("total", "leg", "hand", "landmarks")
 """Names of the loss terms in history records, in display order."""
@@ -128,3 +129,9 @@ class StageLog:
         if self.bar is not None:
             self.bar.close()
         return {**schedule, "seconds": time.perf_counter() - self.t0, **self.last}
+
+
+def landmark_fit(images: Sequence[torch.Tensor], targets: Sequence[torch.Tensor]) -> list[float]:
+    """Exact Hausdorff distance of each mapped landmark set to its target set (domain units)."""
+    return [hausdorff(y.detach().cpu().double().numpy(), q.cpu().double().numpy())
+            for y, q in zip(images, targets)]

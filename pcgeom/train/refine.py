@@ -7,7 +7,7 @@ import torch
 
 from ..config import RefineConfig
 from .data import TrainData
-from .objective import Batch, Objective, StageLog, step
+from .objective import Batch, Objective, StageLog, landmark_fit, step
 
 __all__ = ["refine"]
 
@@ -77,4 +77,7 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
         alpha_initial=config.alpha, alpha_final=config.alpha, batch_points=n,
         batch_domain=batch_domain,
     )
+    if lm_index:
+        record["landmark_hausdorff"] = landmark_fit([U[ix] for ix in lm_index],
+                                                    data.landmark_targets)
     return U.detach(), log_l.detach().exp(), record

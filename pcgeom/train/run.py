@@ -128,12 +128,15 @@ def parametrize(
     torch.manual_seed(seed)
     gen.manual_seed(seed)
     nets = build_networks(config, Xn, domain, data)
-    identity = {"fingerprint": fingerprint(P), "config": config.to_dict(), "seed": seed}
+    # What a checkpoint must share with this run to be resumed.
+    identity = {"fingerprint": fingerprint(P), "config": config.to_dict(), "seed": seed,
+                "domain": domain.to_dict(),
+                "landmarks": [[fingerprint(p), fingerprint(q)] for p, q in landmarks]}
     history: list[dict] = []
     start_stage = 0
     ckpt = Path(checkpoint) if checkpoint is not None else None
     if ckpt is not None and resume and ckpt.exists():
-        state = load_checkpoint(ckpt, **identity)
+        state = load_checkpoint(ckpt, identity)
         nets.load_state_dict(state["networks"])
         gen.set_state(state["gen"])
         torch.set_rng_state(state["torch_rng"])

@@ -1,0 +1,114 @@
+"""``pcgeom domains``: list the parameter domains, or draw one."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from ..domains import DOMAINS, get_domain
+from ..errors import InputError
+from ..io import check_writable
+from ._common import EXIT_OK, int_at_least, run_command, seed, standalone_parser
+
+__all__ = ["configure", "run", "main"]
+
+NAME = "domains"
+HELP = "list the parameter domains, or draw one"
+DESCRIPTION = ("List the built-in parameter domains (name, spec arguments, area), or draw one "
+               "with 'show'. Any listed name, NAME:VALUES or PATH.json is a valid "
+               "'pcgeom param --domain' value.")
+EPILOG = """\
+examples:
+  pcgeom domains
+      one line per domain: name, spec arguments, area, description
+  pcgeom domains --json
+      the same as one JSON object for scripts
+  pcgeom domains show smile -o smile.png
+      the smiling face's four boundary loops over a light scatter of its sample
+  pcgeom domains show annulus:0.4 -o ring.png --n 5000
+  pcgeom domains show room.json -o room.png
+      a polygon with holes: {"type": "Polygon", "coordinates": [outer ring, hole rings...]}
+"""
+
+
+def configure(p) -> None:
+    """Add ``domains``' arguments to ``p``."""
+    p.add_argument("action", nargs="?", choices=("list", "show"), default="list",
+                   metavar="ACTION", help="list (default) or show")
+    p.add_argument("spec", nargs="?", metavar="SPEC",
+                   help="with show: a domain, e.g. car, rect:2, annulus:0.4 or PATH.json")
+    p.add_argument("-o", "--out", metavar="OUT.png", help="with show: the figure to write")
+    p.add_argument("--n", type=int_at_least(1), default=2000,
+                   help="with show: sample points drawn (default: 2000)")
+    p.add_argument("--seed", type=seed, default=0, help="with show: sample seed (default: 0)")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object on stdout instead of text")
+    p.set_defaults(run=run)
+
+
+def _entries() -> list[dict]:
+    """One record per registered domain: name, spec arguments, default area, description."""
+    rows = []
+    for name, cls in DOMAINS.items():
+        try:
+            area = cls().area
+        except ValueError:  # a domain with no default (a user polygon)
+            area = None
+        rows.append({
+            "name": name,
+            "spec_args": list(cls.spec_args),
+            "area": area if area is None or area != float("inf") else None,
+            "bounded": cls.bounded,
+            "description": (cls.__doc__ or "").strip().splitlines()[0],
+        })
+    return rows
+
+
+def _list(args) -> int:
+    if args.spec is not None or args.out is not None:
+        raise InputError("'pcgeom domains' lists the domains; to draw one: "
+                         "pcgeom domains show SPEC -o OUT.png")
+    rows = _entries()
+    if args.json:
+        print(json.dumps({"command": "domains", "domains": rows}))
+        return EXIT_OK
+    shown = {r["name"]: r["name"] + (":" + ",".join(r["spec_args"]) if r["spec_args"] else "")
+             for r in rows}
+    width = max(len(s) for s in shown.values())
+    for r in rows:
+        area = "-" if r["area"] is None else f"{r['area']:.4f}"
+        print(f"{shown[r['name']]:<{width}}  area {area:>6}  {r['description']}")
+    return EXIT_OK
+
+
+def _show(args) -> int:
+    if args.spec is None:
+        raise InputError("show needs a domain: pcgeom domains show SPEC -o OUT.png")
+    if args.out is None:
+        raise InputError("show needs an output file: -o OUT.png")
+    domain = get_domain(args.spec)
+    out = check_writable(args.out, "png")
+    if not domain.bounded:
+        raise InputError(f"domain {domain.spec!r} has no region to draw")
+    from ..apps.plot import plot_domain
+
+    plot_domain(domain, out, n=args.n, seed=args.seed)
+    loops = domain.boundary_loops()
+    if args.json:
+        print(json.dumps({"command": "domains show", "domain": domain.spec, "out": args.out,
+                          "area": domain.area, "centroid": domain.centroid.tolist(),
+                          "boundary_loops": len(loops), "n": args.n}))
+    else:
+        print(f"{args.spec}: area {domain.area:.4f}, {len(loops)} boundary loop(s) -> {args.out}")
+    return EXIT_OK
+
+
+def run(args) -> int:
+    """Run ``pcgeom domains`` on parsed arguments; returns the exit status."""
+    return _show(args) if args.action == "show" else _list(args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``pcgeom domains`` on its own: ``main(["show", "car", "-o", "car.png"])``."""
+    return run_command(standalone_parser(sys.modules[__name__]), argv)

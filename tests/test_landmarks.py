@@ -1,0 +1,174 @@
+"""Landmark files (pcgeom.io.landmarks) and landmarks through the CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+import pcgeom.cli.param as param_command
+from pcgeom import cli
+from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
+from pcgeom.errors import InputError
+from pcgeom.examples import peaks_surface
+from pcgeom.io import read_landmarks, write_ply_atomic
+from pcgeom.io.landmarks import SNAP_SPACINGS, parse_landmarks, sample_polyline
+from pcgeom.metrics import hausdorff
+
+
+@pytest.fixture(scope="module")
+def cloud():
+    return peaks_surface("peaks3", n_side=12)[0]  # (144, 3), spacing 2/11
+
+
+def _write(tmp_path, data, name="marks.json"):
+    path = tmp_path / name
+    path.write_text(json.dumps(data))
+    return path
+
+
+def test_indices_and_points_and_polylines(tmp_path, cloud):
+    noisy = cloud[[7, 50]] + 0.01  # within a spacing: snaps to rows 7 and 50
+    data = {"landmarks": [
+        {"indices": [3, 4, 5], "targets": [[0.5, 0.0], [0.6, 0.0]]},
+        {"points": noisy.tolist(),
+         "polylines": [[[-0.5, -0.25], [0.5, -0.25]], [[-0.5, 0.25], [0.0, 0.25], [0.5, 0.25]]],
+         "spacing": 0.1},
+    ]}
+    a, b = read_landmarks(_write(tmp_path, data), cloud)
+    np.testing.assert_array_equal(a.indices, [3, 4, 5])
+    np.testing.assert_array_equal(a.targets, [[0.5, 0.0], [0.6, 0.0]])
+    np.testing.assert_array_equal(b.indices, [7, 50])
+    # Two curves of length 1 sampled every 0.1: 11 points each, end points included.
+    assert b.targets.shape == (22, 2)
+    np.testing.assert_allclose(np.unique(b.targets[:, 1]), [-0.25, 0.25])
+    np.testing.assert_allclose(np.sort(b.targets[:11, 0]), np.linspace(-0.5, 0.5, 11), atol=1e-12)
+    # A bare list works like {"landmarks": [...]}.
+    (c,) = parse_landmarks([{"indices": [1], "targets": [[0, 0]]}], cloud)
+    np.testing.assert_array_equal(c.indices, [1])
+
+
+def test_sample_polyline_is_even_by_arc_length():
+    S = sample_polyline([[0, 0], [1, 0], [1, 2]], 0.25)  # length 3
+    assert S.shape == (13, 2)
+    steps = np.linalg.norm(np.diff(S, axis=0), axis=1)
+    # Chords equal the arc steps except across the corner.
+    assert np.sum(np.abs(steps - 0.25) > 1e-12) <= 1
+    np.testing.assert_array_equal(S[[0, -1]], [[0, 0], [1, 2]])
+
+
+@pytest.mark.parametrize(
+    "pair, message",
+    [
+        ({"indices": [1, 144], "targets": [[0, 0]]},
+         "pair 0: index 144 out of range; the cloud has 144 points (0..143)"),
+        ({"indices": [-1], "targets": [[0, 0]]}, "pair 0: index -1 out of range"),
+        ({"indices": [], "targets": [[0, 0]]}, "pair 0: 'indices' must be a non-empty list"),
+        ({"indices": [0.5], "targets": [[0, 0]]}, "pair 0: 'indices' must be integers"),
+        ({"points": [[5.0, 5.0, 5.0]], "targets": [[0, 0]]},
+         f"pair 0: point 0 [5.0, 5.0, 5.0] is "),
+        ({"indices": [1], "targets": []}, "pair 0: 'targets' must have shape (k, 2), got (0,)"),
+        ({"indices": [1], "targets": [[0, 0, 0]]}, "pair 0: 'targets' must have shape (k, 2)"),
+        ({"indices": [1], "targets": [[0, None]]}, "pair 0: 'targets' contains NaN or inf"),
+        ({"indices": [1], "polylines": []}, "pair 0: 'polylines' is empty"),
+        ({"indices": [1], "polylines": [[[0, 0], [1, 0]]]},
+         "pair 0: 'polylines' need a positive 'spacing', got None"),
+        ({"indices": [1], "polylines": [[[0, 0]]], "spacing": 0.1},
+         "pair 0: polyline 0 needs at least 2 vertices, got 1"),
+        ({"indices": [1], "points": [[0, 0, 0]], "targets": [[0, 0]]},
+         "pair 0: give exactly one of 'indices' or 'points'"),
+        ({"indices": [1]}, "pair 0: give exactly one of 'targets' or 'polylines'"),
+        ({"indices": [1], "targets": [[0, 0]], "weight": 2}, "pair 0: unknown key(s) weight"),
+    ],
+)
+def test_bad_pairs(tmp_path, cloud, pair, message):
+    with pytest.raises(InputError) as info:
+        read_landmarks(_write(tmp_path, [pair]), cloud)
+    assert str(info.value).startswith(f"{tmp_path / 'marks.json'}: ")
+    assert message in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_far_points_message_names_the_distance_and_rule(tmp_path, cloud):
+    with pytest.raises(InputError, match=rf"more than {SNAP_SPACINGS:g} point spacings"):
+        read_landmarks(_write(tmp_path, [{"points": [[0, 0, 2.0]], "targets": [[0, 0]]}]), cloud)
+
+
+@pytest.mark.parametrize(
+    "content, name, message",
+    [
+        ("[", "marks.json", "marks.json: cannot parse"),
+        ("[]", "marks.json", "marks.json: expected a non-empty list of landmark pairs"),
+        ('{"pairs": []}', "marks.json", "marks.json: expected a non-empty list"),
+        ("[1]", "marks.json", "marks.json: pair 0: expected an object"),
+        ("[]", "marks.txt", "marks.txt: landmark file must have extension '.json', got '.txt'"),
+    ],
+)
+def test_bad_files(tmp_path, cloud, content, name, message):
+    path = tmp_path / name
+    path.write_text(content)
+    with pytest.raises(InputError) as info:
+        read_landmarks(path, cloud)
+    assert message in str(info.value)
+    with pytest.raises(InputError, match="absent.json: no such file"):
+        read_landmarks(tmp_path / "absent.json", cloud)
+
+
+# --------------------------------------------------------------------------- through the CLI
+
+
+def _tiny(name: str):
+    return get_preset(
+        name,
+        schedule=ScheduleConfig(epochs=3, epochs_min=2, batch_points=128, batch_domain=128),
+        param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),
+        lambda_net=NetConfig(width=16, depth=1, init="siren", w0=5.0),
+        domain_samples=512, max_stages=2, refine=RefineConfig(steps=30),
+    )
+
+
+def test_cli_landmarks_reach_training_and_the_report(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(param_command, "get_preset", _tiny)
+    torch.set_num_threads(1)
+    V, F = peaks_surface("peaks3", n_side=16)
+    mesh = tmp_path / "m.ply"
+    write_ply_atomic(mesh, V, F)
+    edge = np.flatnonzero(V[:, 0] == 1.0)  # the 16 points of the edge x = 1
+    marks = _write(tmp_path, [{"indices": edge.tolist(),
+                               "polylines": [[[0.9, -0.3], [0.9, 0.3]]], "spacing": 0.05}])
+    out = tmp_path / "m.npz"
+    argv = ["param", str(mesh), "--domain", "disk", "--landmarks", str(marks), "--quiet",
+            "--json", "--out", str(out)]
+    assert cli.main(argv) == 0
+    report = json.loads(capsys.readouterr().out)
+    (fit,) = report["landmark_hausdorff"]
+    from pcgeom import ParamResult
+
+    result = ParamResult.load(out)
+    target = sample_polyline([[0.9, -0.3], [0.9, 0.3]], 0.05)
+    assert fit == pytest.approx(hausdorff(result.uv[edge], target), rel=1e-5)  # float32 training
+    assert [len(r["landmark_hausdorff"]) for r in result.history] == [1, 1, 1]
+    assert all("landmarks" in r for r in result.history)
+    # Measured 0.225 after 2 tiny stages and 30 refinement steps, one thread.
+    assert fit < 0.5
+
+
+def test_cli_landmark_errors_come_before_training(tmp_path, monkeypatch, capsys):
+    def forbidden(*args, **kwargs):
+        raise AssertionError("training started")
+
+    monkeypatch.setattr(param_command, "parametrize", forbidden)
+    monkeypatch.chdir(tmp_path)
+    marks = _write(tmp_path, [{"indices": [99999], "targets": [[0, 0]]}])
+    for argv, message in [
+        (["--example", "peaks3", "--landmarks", str(marks)],
+         "--landmarks needs a parameter domain; add --domain disk"),
+        (["--example", "peaks3", "--domain", "disk", "--landmarks", str(marks)],
+         "pair 0: index 99999 out of range; the cloud has 5776 points"),
+    ]:
+        assert cli.main(["param", *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("pcgeom: error: ") and err.count("\n") == 1 and message in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["marks.json"]
