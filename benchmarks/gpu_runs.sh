@@ -45,7 +45,10 @@ PY
 for seed in 0 1 2; do
     run "peaks3_fast_s$seed" --example peaks3 --seed "$seed"
 done
-run peaks3_disk_s0 --example peaks3 --domain disk
 run face3holes_fast_s0 "$data/face_3holes_small_choi.ply"
 run facehuman_fast_s0 "$data/face_human_choi.ply"
+for seed in 0 1 2; do
+    run "peaks3_disk_s$seed" --example peaks3 --domain disk --seed "$seed"
+    run "facehuman_disk_s$seed" "$data/face_human_choi.ply" --domain disk --seed "$seed"
+done
 rm -f "$out"/*.npz

@@ -133,19 +133,24 @@ def hausdorff(A, B) -> float:
     return float(max(d_ab.max(), d_ba.max()))
 
 
-def domain_hausdorff(U, domain, n: int = 20000) -> float:
-    """Hausdorff distance between a mapped cloud and a dense sample of the domain.
+def domain_hausdorff(U, domain, n: int = 200_000) -> float:
+    """Hausdorff distance between a mapped cloud and the region of its domain.
 
-    ``hausdorff(U, domain.sample(n))``: exact between the two point sets, so it includes the
-    sample's own resolution (about the spacing ``sqrt(area / n)``, 0.013 for the unit disk at
-    n = 20000) as a floor.
+    ``max(d(U -> region), d(region -> U))``:
+
+    - ``d(U -> region)``: the largest distance of a mapped point outside the region, exact
+      (``domain.signed_distance``);
+    - ``d(region -> U)``: the largest gap the map leaves in the region, measured at ``n``
+      area-uniform samples of it (nearest mapped point of each, scipy ``cKDTree``). It
+      under-reads the true gap by at most the sample spacing, about ``sqrt(area / n)``: 0.004
+      on the unit disk at the default n = 200 000.
 
     Parameters
     ----------
     U : (N, 2) array_like
         Mapped points.
     domain : pcgeom.domains.Domain
-        The target region.
+        A bounded domain.
     n : int
         Size of the domain sample.
 
@@ -153,6 +158,8 @@ def domain_hausdorff(U, domain, n: int = 20000) -> float:
     -------
     float
     """
+    from scipy.spatial import cKDTree
+
     from pcgeom.domains import Domain
 
     if not isinstance(domain, Domain):
@@ -162,4 +169,6 @@ def domain_hausdorff(U, domain, n: int = 20000) -> float:
     U = _as_points(U, "U", 2)
     if len(U) == 0:
         raise ValueError("U: expected at least one point, got shape (0, 2)")
-    return hausdorff(U, domain.sample(n))
+    outside = float(max(0.0, domain.signed_distance(U).max()))
+    gaps, _ = cKDTree(U).query(domain.sample(n), k=1)  # (n,)
+    return max(outside, float(gaps.max()))

@@ -304,7 +304,7 @@ def test_leg_pairs_with_all_pairs_equals_leg():
     perm = torch.from_numpy(_rng(0).permutation(N * N))
     ones = torch.ones(N * N, dtype=DTYPE)
     torch.testing.assert_close(
-        leg_pairs(X, Y, l, 0.8, i.reshape(-1)[perm], j.reshape(-1)[perm], ones), full,
+        leg_pairs(X, Y, l, 0.8, i.reshape(-1)[perm], j.reshape(-1)[perm], weight=ones), full,
         rtol=1e-13, atol=0,
     )
 
@@ -319,7 +319,7 @@ def test_leg_pairs_weighted_matches_naive_weighted_mean():
     Ds = [_naive_D(X[a], X[b], Y[a], Y[b], l[a], l[b], sigma) for a, b in zip(i, j)]
     want = sum(wp * D for wp, D in zip(w, Ds)) / w.sum()
     got = leg_pairs(_t(X), _t(Y), _t(l), sigma, torch.from_numpy(i), torch.from_numpy(j),
-                    _t(w)).item()
+                    weight=_t(w)).item()
     assert math.isclose(got, want, rel_tol=1e-12)
     unweighted = sum(Ds) / len(Ds)
     assert abs(want - unweighted) > 1e-4  # the weights matter here
@@ -390,7 +390,7 @@ def test_leg_auto_picks_pairs_when_given_and_dense_otherwise():
     assert abs(sparse.item() - dense.item()) > 1e-3  # 12 random pairs are not all N^2 pairs
     assert leg(X, Y, l, 0.8, pairs=(i, j)).item() == sparse.item()
     assert leg(X, Y, l, 0.8, pairs=(i, j), backend="pairs").item() == sparse.item()
-    weighted = leg_pairs(X, Y, l, 0.8, i, j, w)
+    weighted = leg_pairs(X, Y, l, 0.8, i, j, weight=w)
     assert abs(weighted.item() - sparse.item()) > 1e-4  # the weights matter here
     assert leg(X, Y, l, 0.8, pairs=(i, j), weight=w).item() == weighted.item()
 
@@ -579,7 +579,7 @@ def test_gradcheck_leg_and_leg_pairs():
     i, j = torch.from_numpy(rng.integers(0, 6, 15)), torch.from_numpy(rng.integers(0, 6, 15))
     w = _t(rng.uniform(0.1, 2.0, 15))
     assert torch.autograd.gradcheck(lambda y, li: leg_pairs(X, y, li, 1.5, i, j), (Y, l))
-    assert torch.autograd.gradcheck(lambda y, li: leg_pairs(X, y, li, 1.5, i, j, w), (Y, l))
+    assert torch.autograd.gradcheck(lambda y, li: leg_pairs(X, y, li, 1.5, i, j, weight=w), (Y, l))
 
 
 def test_gradcheck_landmark_hand():

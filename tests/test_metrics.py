@@ -223,3 +223,19 @@ def test_domain_hausdorff_needs_a_bounded_domain():
     match = r"^domain: 'free' has no region to measure a distance to$"
     with pytest.raises(ValueError, match=match):
         domain_hausdorff(Disk().sample(10), FreeBoundary())
+
+
+def test_domain_hausdorff_is_exact_outside_and_fine_inside():
+    disk = Disk()
+    cover = disk.sample(20000, seed=2)
+    # One stray point 0.37 outside the circle: exactly 0.37, not blurred by a sample.
+    stray = np.vstack([cover, [[1.37, 0.0]]])
+    assert domain_hausdorff(stray, disk) == pytest.approx(0.37, abs=1e-12)
+    # A hole of radius 0.05 punched around (0.3, 0.2): the true gap is between 0.05 and 0.05
+    # plus the cloud's spacing; the sample under-reads it by at most its resolution (0.004),
+    # where the old 20 000-point floor (0.013) would have blurred it by a quarter.
+    holed = cover[np.linalg.norm(cover - [0.3, 0.2], axis=1) > 0.05]
+    got = domain_hausdorff(holed, disk)
+    assert 0.05 - 0.004 <= got < 0.05 + np.sqrt(np.pi / 20000)
+    # A cloud that covers the disk densely reads near zero: the two samples' spacings only.
+    assert domain_hausdorff(cover, disk) < np.sqrt(np.pi / 20000)

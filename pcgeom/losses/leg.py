@@ -64,6 +64,7 @@ def leg_pairs(
     sigma: float,
     i: torch.Tensor,
     j: torch.Tensor,
+    *,
     weight: torch.Tensor | None = None,
 ) -> torch.Tensor:
     r"""LEG restricted to the listed pairs ``(i[p], j[p])``: a weighted mean of ``D_ij``.
@@ -156,4 +157,4 @@ def leg(
     if pairs is None:
         raise ValueError("leg: the 'pairs' backend needs pairs=(i, j)")
     i, j = pairs
-    return leg_pairs(X, Y, lam_inv, sigma, i, j, weight)
+    return leg_pairs(X, Y, lam_inv, sigma, i, j, weight=weight)
