@@ -1,7 +1,8 @@
-"""Applications built on the core: evaluation, figures, classical baselines.
+"""Applications built on the core: evaluation, figures, classical baselines, boundary
+detection.
 
 Apps may import :mod:`pcgeom.train`, :mod:`pcgeom.metrics`, :mod:`pcgeom.io` and the
 domains; nothing in the core imports an app.
 """
 
-__all__ = ["evaluate", "plot", "baselines"]
+__all__ = ["evaluate", "plot", "baselines", "boundary"]

@@ -1,5 +1,5 @@
 """Figures: a 2D map coloured by a per-point value, a parameter domain, per-stage loss curves,
-angle histograms.
+angle histograms, detected boundary loops and the effect of the threshold h on them.
 
 matplotlib is imported inside each function (it is slow to import and only figures need it),
 and figures are built with :class:`matplotlib.figure.Figure` on the Agg canvas, never through
@@ -20,7 +20,8 @@ import numpy as np
 from ..io.atomic import write_atomic
 from ..train.objective import LOSS_TERMS
 
-__all__ = ["plot_map", "plot_domain", "plot_history", "plot_angle_histogram"]
+__all__ = ["plot_map", "plot_domain", "plot_history", "plot_angle_histogram", "plot_boundary",
+           "plot_boundary_h_sweep"]
 
 
 def _new_figure(figsize: tuple[float, float]):
@@ -269,4 +270,140 @@ def plot_angle_histogram(per_corner, path, bins: int = 60, title: str | None = N
     ax.legend()
     if title:
         ax.set_title(title)
+    return _save_png_atomic(fig, path)
+
+
+def _check_map(U) -> np.ndarray:
+    U = np.asarray(U, dtype=np.float64)
+    if U.ndim != 2 or U.shape[1] != 2 or len(U) == 0:
+        raise ValueError(f"U: expected shape (N, 2) with N >= 1, got {U.shape}")
+    if not np.isfinite(U).all():
+        raise ValueError("U: contains NaN or inf")
+    return U
+
+
+def _draw_boundary(ax, U: np.ndarray, found, legend: bool) -> None:
+    """Kept triangles in light grey, removed ones faint orange, each loop in its own colour
+    (outer loop black), dropped loops dotted grey."""
+    from matplotlib.collections import LineCollection
+
+    for tris, colour, alpha in ((found.triangles, "0.55", 0.5), (found.removed, "tab:orange", 0.25)):
+        if len(tris):
+            segs = U[np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])]
+            ax.add_collection(LineCollection(segs, colors=colour, linewidths=0.3, alpha=alpha))
+    size = float(np.clip(4000.0 / len(U), 0.3, 6.0))
+    ax.scatter(U[:, 0], U[:, 1], s=size, c="0.3", linewidths=0)
+    for loop in found.dropped:
+        closed = U[np.append(loop, loop[0])]
+        ax.plot(closed[:, 0], closed[:, 1], color="0.4", linewidth=0.8, linestyle=":")
+    palette = ["tab:red", "tab:blue", "tab:green", "tab:purple", "tab:cyan", "tab:brown",
+               "tab:pink", "tab:olive"]
+    shown = 8  # legend entries; a map with dozens of loops would drown the axes
+    for i, loop in enumerate(found.loops):
+        closed = U[np.append(loop, loop[0])]
+        colour = "black" if i == 0 else palette[(i - 1) % len(palette)]
+        kind = "outer" if i == 0 else f"hole {i}" if found.areas[i] < 0 else f"island {i}"
+        label = f"{kind}: {len(loop)} points" if i < shown else None
+        ax.plot(closed[:, 0], closed[:, 1], color=colour, linewidth=1.4, label=label)
+    if len(found.loops) > shown:
+        ax.plot([], [], color="none", label=f"... {len(found.loops) - shown} more loops")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.autoscale_view()
+    if legend and found.loops:
+        ax.legend(fontsize="small", loc="best")
+
+
+def _rule_text(found) -> str:
+    rule = f"h = {found.h:.4g}" if found.h is not None else f"local rule, c = {found.c:g}"
+    return f"{rule}: {len(found.loops)} loop(s), {len(found.dropped)} dropped"
+
+
+def plot_boundary(U, found, path, title: str | None = None) -> Path:
+    """The map with its detected boundary loops.
+
+    Parameters
+    ----------
+    U : (N, 2) array_like
+        The map the loops were detected on.
+    found : pcgeom.apps.boundary.BoundaryLoops
+        The result of :func:`pcgeom.apps.boundary.detect_boundary` on ``U``: loops coloured
+        (outer loop black, holes in colours, dropped loops dotted), kept Delaunay triangles
+        grey, removed ones faint orange.
+    path : str or os.PathLike
+        Output ``.png`` file, written atomically.
+    title : str, optional
+        Axes title (default: the rule and the loop count).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        ``U`` not (N, 2) with N >= 1 or not finite, loops that index outside ``U``, or a path
+        without the ``.png`` extension.
+    """
+    U = _check_map(U)
+    rows = [found.triangles.ravel(), found.removed.ravel(), *found.loops, *found.dropped]
+    top = max((int(r.max()) for r in rows if len(r)), default=-1)
+    if top >= len(U):
+        raise ValueError(f"found: refers to row {top} but U has {len(U)} rows")
+    fig = _new_figure((6.4, 5.6))
+    ax = fig.add_subplot()
+    _draw_boundary(ax, U, found, legend=True)
+    ax.set_xlabel("u")
+    ax.set_ylabel("v")
+    ax.set_title(title if title is not None else _rule_text(found))
+    return _save_png_atomic(fig, path)
+
+
+def plot_boundary_h_sweep(U, hs, path, title: str | None = None) -> Path:
+    """The effect of the threshold h: one panel of detected loops per value.
+
+    Too small an h removes triangles of the surface and opens spurious loops; too large an h
+    keeps triangles across the holes and the concave parts of the rim, down to the convex
+    hull as one loop. The default local rule (``None`` in ``hs``) needs no h.
+
+    Parameters
+    ----------
+    U : (N, 2) array_like
+        A free-boundary map.
+    hs : sequence of float or None
+        Thresholds, one panel each, in order; ``None`` draws the default local rule.
+    path : str or os.PathLike
+        Output ``.png`` file, written atomically.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        ``hs`` empty, a non-positive h, a bad ``U`` (``pcgeom.InputError``), or a path
+        without the ``.png`` extension.
+    """
+    from .boundary import detect_boundary
+
+    U = _check_map(U)
+    hs = list(hs)
+    if not hs:
+        raise ValueError("hs: expected at least one threshold, got none")
+    results = [detect_boundary(U, h) for h in hs]  # InputError for a bad h, before drawing
+    cols = min(len(hs), 3)
+    rows = -(-len(hs) // cols)
+    fig = _new_figure((4.2 * cols, 3.8 * rows))
+    for i, found in enumerate(results):
+        ax = fig.add_subplot(rows, cols, i + 1)
+        _draw_boundary(ax, U, found, legend=False)
+        ax.set_title(_rule_text(found), fontsize="medium")
+        ax.set_xticks([])
+        ax.set_yticks([])
+    if title:
+        fig.suptitle(title)
     return _save_png_atomic(fig, path)

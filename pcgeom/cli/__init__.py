@@ -10,12 +10,12 @@ from __future__ import annotations
 import argparse
 
 from .._version import __version__
-from . import domains, evaluate, param
+from . import boundary, domains, evaluate, param
 from ._common import Parser, add_command, run_command
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
-COMMANDS = (param, evaluate, domains)
+COMMANDS = (param, evaluate, boundary, domains)
 """Command modules, in ``--help`` order."""
 
 _EPILOG = """\
@@ -23,6 +23,7 @@ examples:
   pcgeom param --example peaks3 --out peaks3_uv.npz --plot peaks3_uv.png
   pcgeom param scan.ply --domain disk --out-ply scan_uv.ply --json
   pcgeom evaluate mesh.ply mesh_uv.npz
+  pcgeom boundary scan.ply --map scan_uv.npz --out scan_loops.json --plot scan_loops.png
   pcgeom domains show smile -o smile.png
 
 Run 'pcgeom COMMAND --help' for the options of each command. Bad input prints one line

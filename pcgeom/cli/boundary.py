@@ -1,0 +1,141 @@
+"""``pcgeom boundary``: the boundary loops of a point cloud, from its free-boundary map."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+import numpy as np
+
+from ..apps.boundary import DEFAULT_MIN_LOOP, detect_boundary
+from ..cloud import fingerprint
+from ..config import get_preset
+from ..errors import InputError
+from ..io import ParamResult, check_writable, read_points
+from ..io.atomic import write_atomic
+from ..train import parametrize
+from ._common import EXIT_OK, distinct_paths, run_command, standalone_parser
+
+__all__ = ["configure", "run", "main"]
+
+NAME = "boundary"
+HELP = "boundary loops of a point cloud (outer rim and holes)"
+DESCRIPTION = ("Detect the boundary loops of a point cloud (its outer rim and its holes) on its "
+               "free-boundary map: Delaunay triangulation of the map, triangles that span gaps "
+               "removed, boundary edges ordered into loops.")
+EPILOG = f"""\
+examples:
+  pcgeom boundary scan.ply --out scan_loops.json
+      maps the cloud first (free boundary, preset fast), then detects its loops
+  pcgeom boundary scan.ply --map scan_uv.npz --out scan_loops.json --plot scan_loops.png
+      reuses a map written by 'pcgeom param scan.ply' (no --domain)
+  pcgeom boundary scan.ply --map scan_uv.npz --h 0.02 --out loops.json --quiet --json
+      the paper's rule: remove every triangle with an edge longer than 0.02 (map units)
+
+LOOPS.json holds {{"loops": [[i0, i1, ...], ...], "h": ..., ...}}: each loop as rows of INPUT
+(from 0), outer loop first (counter-clockwise in the map), then the holes by size. Without
+--h, triangles are judged against the local point spacing of the map, which needs no scale
+(see pcgeom.apps.boundary). Loops of fewer than {DEFAULT_MIN_LOOP} points are dropped as sampling gaps.
+Faces in INPUT are never used.
+"""
+
+
+def _positive_float(text: str) -> float:
+    """argparse type of ``--h``: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def configure(p: argparse.ArgumentParser) -> None:
+    """Add ``boundary``'s arguments to ``p``."""
+    p.add_argument("input", metavar="INPUT",
+                   help="point cloud: .ply .obj .off .xyz .txt .csv .npz")
+    p.add_argument("--map", metavar="MAP.npz",
+                   help="free-boundary map of INPUT written by 'pcgeom param' (default: map "
+                        "INPUT first, preset fast)")
+    p.add_argument("--h", type=_positive_float, metavar="H",
+                   help="remove every triangle with an edge longer than H in the map (the "
+                        "paper's rule; default: a rule from the local point spacing)")
+    p.add_argument("--out", required=True, metavar="LOOPS.json", help="the loops, as JSON")
+    p.add_argument("--plot", metavar="LOOPS.png",
+                   help="also draw the map with the loops and the removed triangles")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object on stdout instead of a summary")
+    p.set_defaults(run=run)
+
+
+def _load_map(args, points: np.ndarray) -> ParamResult:
+    """The map of ``--map``, checked to belong to ``points`` and to be a free-boundary map."""
+    result = ParamResult.load(args.map, n_points=len(points), against=args.input)
+    if result.fingerprint is not None and result.fingerprint != fingerprint(points):
+        raise InputError(f"{args.map}: was made from another cloud than {args.input} "
+                         "(same number of points, different coordinates)")
+    if result.domain is not None and result.domain.bounded:
+        raise InputError(f"{args.map}: was trained onto the domain {result.domain.spec!r}; "
+                         "boundary detection needs a free-boundary map (pcgeom param without "
+                         "--domain)")
+    return result
+
+
+def run(args) -> int:
+    """Run ``pcgeom boundary`` on parsed arguments; returns the exit status."""
+    # Everything that can be wrong with the request is checked before any training.
+    points = read_points(args.input).points  # validated: finite, >= 10 distinct, a surface
+    out = check_writable(args.out, "json")
+    plot = check_writable(args.plot, "png") if args.plot else None
+    distinct_paths({"INPUT": args.input, "--map": args.map}, {"out": out, "plot": plot})
+    if args.map is not None:
+        result = _load_map(args, points)
+    else:
+        result = parametrize(points, "free", config=get_preset("fast"),
+                             progress=not args.quiet)
+
+    found = detect_boundary(result.uv, h=args.h)
+    document = {**found.to_dict(), "input": args.input, "n_points": len(points)}
+    write_atomic(out, lambda f: f.write(json.dumps(document).encode("utf-8")))
+    if plot is not None:
+        from ..apps.plot import plot_boundary
+
+        plot_boundary(result.uv, found, plot, title=f"{args.input}: {len(found.loops)} loop(s)")
+
+    summary = {
+        "command": "boundary",
+        "input": args.input,
+        "map": args.map,
+        "out": os.fspath(out),
+        "plot": os.fspath(plot) if plot else None,
+        "n_points": len(points),
+        "h": found.h,
+        "c": found.c,
+        "min_loop": found.min_loop,
+        "n_loops": len(found.loops),
+        "loop_points": [len(loop) for loop in found.loops],
+        "n_dropped": len(found.dropped),
+        "mapped_seconds": None if args.map is not None else float(result.seconds),
+    }
+    if args.json:
+        print(json.dumps(summary))
+        return EXIT_OK
+    rule = (f"h = {found.h:g}" if found.h is not None
+            else f"local spacing rule, c = {found.c:g}")
+    print(f"{args.input}: {len(points)} points, {len(found.loops)} boundary loop(s) ({rule}) "
+          f"-> {summary['out']}" + (f", {summary['plot']}" if plot else ""))
+    for i, (loop, area) in enumerate(zip(found.loops, found.areas)):
+        kind = "outer" if i == 0 else "hole" if area < 0 else "island"
+        print(f"  loop {i + 1} ({kind}): {len(loop)} points")
+    if found.dropped:
+        print(f"  {len(found.dropped)} loop(s) of fewer than {found.min_loop} points dropped")
+    return EXIT_OK
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``pcgeom boundary`` on its own: ``main(["scan.ply", "--out", "loops.json"])``."""
+    return run_command(standalone_parser(sys.modules[__name__]), argv)
