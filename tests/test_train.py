@@ -419,9 +419,8 @@ class _Stages:
     """An ``on_stage`` callback: records the stages it sees; with ``kill_after=k`` it raises
     KeyboardInterrupt from the k-th call, like a user killing the run then.
 
-    ``parametrize`` calls ``on_stage`` after a stage and *before* writing that stage's
-    checkpoint, so a kill after stage k leaves the checkpoint of stage k - 1: stage k's work
-    is lost, as if the run had been killed during it.
+    ``parametrize`` writes a stage's checkpoint *before* calling ``on_stage``, so a kill from
+    the callback after stage k leaves the checkpoint of stage k: no finished stage is lost.
     """
 
     def __init__(self, kill_after: int | None = None) -> None:
@@ -457,12 +456,12 @@ def test_checkpoint_resume_reproduces_the_uninterrupted_run(tmp_path, peaks):
     assert state["fingerprint"] == fingerprint(V)
 
     ckpt = tmp_path / "r.ckpt"
-    stages = _Stages(kill_after=2)
+    stages = _Stages(kill_after=1)
     with pytest.raises(KeyboardInterrupt):
         parametrize(V, Disk(), checkpoint=ckpt, on_stage=stages, **run)
-    assert stages.seen == [1, 2]
+    assert stages.seen == [1]
     state = _load(ckpt)
-    assert state["next_stage"] == 1 and len(state["history"]) == 1  # stage 2 was lost
+    assert state["next_stage"] == 1 and len(state["history"]) == 1  # stage 1 was kept
 
     stages = _Stages()
     resumed = parametrize(V, Disk(), checkpoint=ckpt, resume=True, on_stage=stages, **run)
@@ -566,7 +565,7 @@ def test_checkpoint_resume_on_cuda(tmp_path, peaks):
     run = dict(config=_tiny(refine=RefineConfig(steps=0)), device="cuda", seed=3, progress=False)
     ckpt = tmp_path / "r.ckpt"
     with pytest.raises(KeyboardInterrupt):
-        parametrize(V, Disk(), checkpoint=ckpt, on_stage=_Stages(kill_after=2), **run)
+        parametrize(V, Disk(), checkpoint=ckpt, on_stage=_Stages(kill_after=1), **run)
     assert _load(ckpt)["next_stage"] == 1
     stages = _Stages()
     resumed = parametrize(V, Disk(), checkpoint=ckpt, resume=True, on_stage=stages, **run)

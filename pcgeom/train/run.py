@@ -151,8 +151,7 @@ def parametrize(
         record = run_network_stage(stage, nets, data, objective, n_stages=len(stages),
                                    progress=progress)
         history.append(record)
-        if on_stage is not None:
-            on_stage(record, current_map())
+        # The checkpoint first: a callback that fails or is interrupted loses no training.
         if ckpt is not None:
             save_checkpoint(ckpt, {
                 "networks": nets.state_dict(),
@@ -162,6 +161,8 @@ def parametrize(
                 "next_stage": stage.index + 1,
                 **identity,
             })
+        if on_stage is not None:
+            on_stage(record, current_map())
 
     with torch.no_grad():
         U = nets.param_net(data.X)
