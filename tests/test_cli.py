@@ -215,7 +215,8 @@ def test_output_would_overwrite_input(tmp_path, monkeypatch, capsys, no_training
          "argument --seed: expected a non-negative integer, got 'one'"),
         (["param", "--example", "peaks3", "--epochs=3"], "unrecognized arguments: --epochs=3"),
         ([], "the following arguments are required: COMMAND"),
-        (["reconstruct"], "argument COMMAND: invalid choice: 'reconstruct'"),
+        (["remesh"], "argument COMMAND: invalid choice: 'remesh'"),
+        (["reconstruct"], "the following arguments are required: INPUT, --out"),
     ],
 )
 def test_usage_errors(tmp_path, monkeypatch, capsys, no_training, argv, message):

@@ -1,8 +1,8 @@
 """Applications built on the core: evaluation, figures, classical baselines, boundary
-detection.
+detection, surface reconstruction.
 
 Apps may import :mod:`pcgeom.train`, :mod:`pcgeom.metrics`, :mod:`pcgeom.io` and the
 domains; nothing in the core imports an app.
 """
 
-__all__ = ["evaluate", "plot", "baselines", "boundary"]
+__all__ = ["evaluate", "plot", "baselines", "boundary", "reconstruct"]

@@ -10,12 +10,12 @@ from __future__ import annotations
 import argparse
 
 from .._version import __version__
-from . import boundary, domains, evaluate, param
+from . import boundary, domains, evaluate, param, reconstruct
 from ._common import Parser, add_command, run_command
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
-COMMANDS = (param, evaluate, boundary, domains)
+COMMANDS = (param, evaluate, boundary, reconstruct, domains)
 """Command modules, in ``--help`` order."""
 
 _EPILOG = """\
@@ -24,6 +24,7 @@ examples:
   pcgeom param scan.ply --domain disk --out-ply scan_uv.ply --json
   pcgeom evaluate mesh.ply mesh_uv.npz
   pcgeom boundary scan.ply --map scan_uv.npz --out scan_loops.json --plot scan_loops.png
+  pcgeom reconstruct scan.ply --map scan_uv.npz --target-vertices 5000 --out scan_mesh.ply
   pcgeom domains show smile -o smile.png
 
 Run 'pcgeom COMMAND --help' for the options of each command. Bad input prints one line
