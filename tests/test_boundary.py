@@ -16,8 +16,9 @@ from pcgeom import InputError, cli, get_domain, parametrize
 from pcgeom.apps.boundary import BoundaryLoops, _walk_loops, detect_boundary
 from pcgeom.apps.plot import plot_boundary, plot_boundary_h_sweep
 from pcgeom.cloud import fingerprint
-from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
 from pcgeom.io import read_points
+
+from tests.helpers import tiny_preset
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -332,17 +333,7 @@ def test_peaks_with_seven_holes_gives_its_eight_true_loops(noise):
 # --------------------------------------------------------------------------- command line
 
 
-def _tiny(name: str):
-    """The named preset shrunk to seconds (as tests/test_cli.py does for param)."""
-    return get_preset(
-        name,
-        schedule=ScheduleConfig(epochs=1, epochs_min=1, batch_points=128, batch_domain=128),
-        param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),
-        lambda_net=NetConfig(width=16, depth=1, init="siren", w0=5.0),
-        domain_samples=512,
-        max_stages=1,
-        refine=RefineConfig(steps=5),
-    )
+_tiny = tiny_preset
 
 
 @pytest.fixture

@@ -16,26 +16,17 @@ import torch
 
 import pcgeom.cli.param as param_command
 from pcgeom import ParamResult, __version__, cli, parametrize
-from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
 from pcgeom.domains import DOMAINS, Disk, Smile
 from pcgeom.examples import peaks_surface
 from pcgeom.io import read_points, write_ply_atomic
 from pcgeom.metrics import angle_distortion, domain_hausdorff
 
+from tests.helpers import tiny_preset
+
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-def _tiny(name: str):
-    """The named preset shrunk to seconds: one short stage, small nets, 5 refinement steps."""
-    return get_preset(
-        name,
-        schedule=ScheduleConfig(epochs=1, epochs_min=1, batch_points=128, batch_domain=128),
-        param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),
-        lambda_net=NetConfig(width=16, depth=1, init="siren", w0=5.0),
-        domain_samples=512,
-        max_stages=1,
-        refine=RefineConfig(steps=5),
-    )
+_tiny = tiny_preset
 
 
 @pytest.fixture

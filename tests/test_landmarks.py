@@ -10,12 +10,13 @@ import torch
 
 import pcgeom.cli.param as param_command
 from pcgeom import cli
-from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
 from pcgeom.errors import InputError
 from pcgeom.examples import peaks_surface
 from pcgeom.io import read_landmarks, write_ply_atomic
 from pcgeom.io.landmarks import SNAP_SPACINGS, parse_landmarks, sample_polyline
 from pcgeom.metrics import hausdorff
+
+from tests.helpers import tiny_preset
 
 
 @pytest.fixture(scope="module")
@@ -120,13 +121,7 @@ def test_bad_files(tmp_path, cloud, content, name, message):
 
 
 def _tiny(name: str):
-    return get_preset(
-        name,
-        schedule=ScheduleConfig(epochs=3, epochs_min=2, batch_points=128, batch_domain=128),
-        param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),
-        lambda_net=NetConfig(width=16, depth=1, init="siren", w0=5.0),
-        domain_samples=512, max_stages=2, refine=RefineConfig(steps=30),
-    )
+    return tiny_preset(name, epochs=3, max_stages=2, refine_steps=30)
 
 
 def test_cli_landmarks_reach_training_and_the_report(tmp_path, monkeypatch, capsys):

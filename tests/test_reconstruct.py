@@ -17,9 +17,10 @@ from pcgeom.apps.baselines import lscm
 from pcgeom.apps.boundary import detect_boundary
 from pcgeom.apps.reconstruct import lift, mesh_report, reconstruct_surface
 from pcgeom.cloud import fingerprint
-from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
 from pcgeom.examples import _BUMPS, peaks_surface
 from pcgeom.io import read_points
+
+from tests.helpers import tiny_preset
 
 gmsh = pytest.importorskip("gmsh")
 igl = pytest.importorskip("igl")
@@ -209,17 +210,7 @@ def test_mesh_report_sees_a_flipped_triangle_and_a_non_manifold_edge():
 # --------------------------------------------------------------------------- command line
 
 
-def _tiny(name: str):
-    """The named preset shrunk to seconds (as tests/test_boundary.py does)."""
-    return get_preset(
-        name,
-        schedule=ScheduleConfig(epochs=1, epochs_min=1, batch_points=128, batch_domain=128),
-        param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),
-        lambda_net=NetConfig(width=16, depth=1, init="siren", w0=5.0),
-        domain_samples=512,
-        max_stages=1,
-        refine=RefineConfig(steps=5),
-    )
+_tiny = tiny_preset
 
 
 @pytest.fixture

@@ -1,0 +1,23 @@
+"""What several test modules share."""
+
+from __future__ import annotations
+
+from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
+
+
+def tiny_preset(name: str, *, epochs: int = 1, max_stages: int = 1, refine_steps: int = 5):
+    """The named preset shrunk to seconds: short stages, small nets, a few refinement steps.
+
+    Unknown names still raise the real error, so a test can patch a command's ``get_preset``
+    with it and keep checking the CLI's messages.
+    """
+    return get_preset(
+        name,
+        schedule=ScheduleConfig(epochs=epochs, epochs_min=max(1, epochs // 2), batch_points=128,
+                                batch_domain=128),
+        param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),
+        lambda_net=NetConfig(width=16, depth=1, init="siren", w0=5.0),
+        domain_samples=512,
+        max_stages=max_stages,
+        refine=RefineConfig(steps=refine_steps),
+    )
