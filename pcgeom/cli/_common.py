@@ -11,8 +11,9 @@ from types import ModuleType
 
 from ..errors import InputError
 
-__all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "int_at_least", "seed",
-           "distinct_paths", "print_angles", "add_command", "standalone_parser", "run_command"]
+__all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "int_at_least",
+           "seed", "distinct_paths", "add_cloud_and_map", "load_free_map", "print_angles",
+           "add_command", "standalone_parser", "run_command"]
 
 EXIT_OK = 0
 EXIT_FAILURE = 1  # the run itself failed (I/O error, missing optional dependency)
@@ -62,6 +63,37 @@ def distinct_paths(inputs: dict[str, str | None], outputs: dict[str, Path | None
         if resolved in seen:
             raise InputError(f"{os.fspath(path)}: {option} is the same file as {seen[resolved]}")
         seen[resolved] = option
+
+
+def add_cloud_and_map(p: argparse.ArgumentParser) -> None:
+    """``INPUT`` and ``--map``: the arguments of the commands that work on a free-boundary map."""
+    p.add_argument("input", metavar="INPUT",
+                   help="point cloud: .ply .obj .off .xyz .txt .csv .npz")
+    p.add_argument("--map", metavar="MAP.npz",
+                   help="free-boundary map of INPUT written by 'pcgeom param' (default: map "
+                        "INPUT first, preset fast)")
+
+
+def load_free_map(args, points, purpose: str):
+    """The ``ParamResult`` of ``args.map``, checked to be a free-boundary map of ``points``.
+
+    Raises
+    ------
+    InputError
+        Anything ``ParamResult.load`` refuses, a map of another cloud with as many points
+        (fingerprint), or a map trained onto a bounded domain (``purpose`` needs a free one).
+    """
+    from ..cloud import fingerprint
+    from ..io import ParamResult
+
+    result = ParamResult.load(args.map, n_points=len(points), against=args.input)
+    if result.fingerprint is not None and result.fingerprint != fingerprint(points):
+        raise InputError(f"{args.map}: was made from another cloud than {args.input} "
+                         "(same number of points, different coordinates)")
+    if result.domain is not None and result.domain.bounded:
+        raise InputError(f"{args.map}: was trained onto the domain {result.domain.spec!r}; "
+                         f"{purpose} needs a free-boundary map (pcgeom param without --domain)")
+    return result
 
 
 def print_angles(report: dict) -> None:

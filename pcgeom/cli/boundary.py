@@ -10,13 +10,13 @@ import sys
 import numpy as np
 
 from ..apps.boundary import DEFAULT_MIN_LOOP, detect_boundary
-from ..cloud import fingerprint
 from ..config import get_preset
 from ..errors import InputError
-from ..io import ParamResult, check_writable, read_points
+from ..io import check_writable, read_points
 from ..io.atomic import write_atomic
 from ..train import parametrize
-from ._common import EXIT_OK, distinct_paths, run_command, standalone_parser
+from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, load_free_map, run_command,
+                      standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -55,11 +55,7 @@ def _positive_float(text: str) -> float:
 
 def configure(p: argparse.ArgumentParser) -> None:
     """Add ``boundary``'s arguments to ``p``."""
-    p.add_argument("input", metavar="INPUT",
-                   help="point cloud: .ply .obj .off .xyz .txt .csv .npz")
-    p.add_argument("--map", metavar="MAP.npz",
-                   help="free-boundary map of INPUT written by 'pcgeom param' (default: map "
-                        "INPUT first, preset fast)")
+    add_cloud_and_map(p)
     p.add_argument("--h", type=_positive_float, metavar="H",
                    help="remove every triangle with an edge longer than H in the map (the "
                         "paper's rule; default: a rule from the local point spacing)")
@@ -72,19 +68,6 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.set_defaults(run=run)
 
 
-def _load_map(args, points: np.ndarray) -> ParamResult:
-    """The map of ``--map``, checked to belong to ``points`` and to be a free-boundary map."""
-    result = ParamResult.load(args.map, n_points=len(points), against=args.input)
-    if result.fingerprint is not None and result.fingerprint != fingerprint(points):
-        raise InputError(f"{args.map}: was made from another cloud than {args.input} "
-                         "(same number of points, different coordinates)")
-    if result.domain is not None and result.domain.bounded:
-        raise InputError(f"{args.map}: was trained onto the domain {result.domain.spec!r}; "
-                         "boundary detection needs a free-boundary map (pcgeom param without "
-                         "--domain)")
-    return result
-
-
 def run(args) -> int:
     """Run ``pcgeom boundary`` on parsed arguments; returns the exit status."""
     # Everything that can be wrong with the request is checked before any training.
@@ -93,7 +76,7 @@ def run(args) -> int:
     plot = check_writable(args.plot, "png") if args.plot else None
     distinct_paths({"INPUT": args.input, "--map": args.map}, {"out": out, "plot": plot})
     if args.map is not None:
-        result = _load_map(args, points)
+        result = load_free_map(args, points, "boundary detection")
     else:
         result = parametrize(points, "free", config=get_preset("fast"),
                              progress=not args.quiet)

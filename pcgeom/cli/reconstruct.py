@@ -11,8 +11,8 @@ from ..apps.reconstruct import SIZES, _gmsh, reconstruct_surface
 from ..config import get_preset
 from ..io import check_writable, read_points, write_ply_atomic
 from ..train import parametrize
-from ._common import EXIT_OK, distinct_paths, int_at_least, run_command, standalone_parser
-from .boundary import _load_map
+from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, int_at_least, load_free_map,
+                      run_command, standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -40,11 +40,7 @@ Needs gmsh (pip install 'gmsh>=4.11').
 
 def configure(p) -> None:
     """Add ``reconstruct``'s arguments to ``p``."""
-    p.add_argument("input", metavar="INPUT",
-                   help="point cloud: .ply .obj .off .xyz .txt .csv .npz")
-    p.add_argument("--map", metavar="MAP.npz",
-                   help="free-boundary map of INPUT written by 'pcgeom param' (default: map "
-                        "INPUT first, preset fast)")
+    add_cloud_and_map(p)
     p.add_argument("--size", choices=SIZES, default="uniform",
                    help="mesh size rule: uniform (default), or adaptive: size proportional to "
                         "lambda_inv^-1/2 of the map (finer where the map compresses the "
@@ -66,7 +62,7 @@ def run(args) -> int:
     distinct_paths({"INPUT": args.input, "--map": args.map}, {"out": out})
     _gmsh()  # a missing gmsh fails here, before any training
     if args.map is not None:
-        result = _load_map(args, points)
+        result = load_free_map(args, points, "boundary detection")
     else:
         result = parametrize(points, "free", config=get_preset("fast"),
                              progress=not args.quiet)
