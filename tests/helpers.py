@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pcgeom import cli
 from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
 
 
@@ -21,3 +22,15 @@ def tiny_preset(name: str, *, epochs: int = 1, max_stages: int = 1, refine_steps
         max_stages=max_stages,
         refine=RefineConfig(steps=refine_steps),
     )
+
+
+def assert_cli_fails(capsys, argv: list[str], message: str) -> None:
+    """``pcgeom argv`` exits with 2, prints nothing on stdout and exactly one stderr line,
+    ``pcgeom: error: ...``, containing ``message``."""
+    code = cli.main(argv)
+    out, err = capsys.readouterr()
+    assert code == 2, err
+    assert out == ""
+    assert err.startswith("pcgeom: error: ")
+    assert err.count("\n") == 1, err
+    assert message in err, err

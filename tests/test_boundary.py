@@ -18,7 +18,7 @@ from pcgeom.apps.plot import plot_boundary, plot_boundary_h_sweep
 from pcgeom.cloud import fingerprint
 from pcgeom.io import read_points
 
-from tests.helpers import tiny_preset
+from tests.helpers import assert_cli_fails, tiny_preset
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -405,12 +405,7 @@ def test_cli_without_a_map_trains_first(tmp_path, capsys, tiny):
     assert captured.err == ""  # --quiet: no progress bars
 
 
-def _fails(capsys, argv, message):
-    code = cli.main(argv)
-    out, err = capsys.readouterr()
-    assert code == 2, err
-    assert out == "" and err.startswith("pcgeom: error: ") and err.count("\n") == 1, err
-    assert message in err, err
+_fails = assert_cli_fails
 
 
 def test_cli_bad_input_is_one_line_before_training(tmp_path, capsys, no_training):

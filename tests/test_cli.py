@@ -21,7 +21,7 @@ from pcgeom.examples import peaks_surface
 from pcgeom.io import read_points, write_ply_atomic
 from pcgeom.metrics import angle_distortion, domain_hausdorff
 
-from tests.helpers import tiny_preset
+from tests.helpers import assert_cli_fails, tiny_preset
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -60,15 +60,7 @@ def _files(root: Path) -> set[str]:
     return {str(p.relative_to(root)) for p in root.rglob("*") if p.is_file()}
 
 
-def _fails(capsys, argv: list[str], message: str) -> None:
-    """``main(argv)`` exits with 2 and exactly one stderr line containing ``message``."""
-    code = cli.main(argv)
-    out, err = capsys.readouterr()
-    assert code == 2, err
-    assert out == ""
-    assert err.startswith("pcgeom: error: ")
-    assert err.count("\n") == 1, err
-    assert message in err, err
+_fails = assert_cli_fails
 
 
 # --------------------------------------------------------------------------- errors

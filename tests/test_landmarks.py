@@ -69,7 +69,7 @@ def test_sample_polyline_is_even_by_arc_length():
         ({"indices": [], "targets": [[0, 0]]}, "pair 0: 'indices' must be a non-empty list"),
         ({"indices": [0.5], "targets": [[0, 0]]}, "pair 0: 'indices' must be integers"),
         ({"points": [[5.0, 5.0, 5.0]], "targets": [[0, 0]]},
-         f"pair 0: point 0 [5.0, 5.0, 5.0] is "),
+         "pair 0: point 0 [5.0, 5.0, 5.0] is "),
         ({"indices": [1], "targets": []}, "pair 0: 'targets' must have shape (k, 2), got (0,)"),
         ({"indices": [1], "targets": [[0, 0, 0]]}, "pair 0: 'targets' must have shape (k, 2)"),
         ({"indices": [1], "targets": [[0, None]]}, "pair 0: 'targets' contains NaN or inf"),

@@ -20,7 +20,7 @@ from pcgeom.cloud import fingerprint
 from pcgeom.examples import _BUMPS, peaks_surface
 from pcgeom.io import read_points
 
-from tests.helpers import tiny_preset
+from tests.helpers import assert_cli_fails, tiny_preset
 
 gmsh = pytest.importorskip("gmsh")
 igl = pytest.importorskip("igl")
@@ -248,12 +248,7 @@ def test_cli_with_a_map_writes_the_mesh(tmp_path, capsys, sheet):
     assert "boundary loops: 2 (2 detected), edge-manifold: True, oriented: True" in stdout
 
 
-def _fails(capsys, argv, message):
-    code = cli.main(argv)
-    out, err = capsys.readouterr()
-    assert code == 2, err
-    assert out == "" and err.startswith("pcgeom: error: ") and err.count("\n") == 1, err
-    assert message in err, err
+_fails = assert_cli_fails
 
 
 def test_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, sheet, monkeypatch):

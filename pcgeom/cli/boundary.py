@@ -11,7 +11,6 @@ import numpy as np
 
 from ..apps.boundary import DEFAULT_MIN_LOOP, detect_boundary
 from ..config import get_preset
-from ..errors import InputError
 from ..io import check_writable, read_points
 from ..io.atomic import write_atomic
 from ..train import parametrize
