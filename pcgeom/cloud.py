@@ -14,6 +14,7 @@ import numpy as np
 from .errors import InputError
 
 __all__ = [
+    "validate_normals",
     "validate_points",
     "validate_faces",
     "deduplicate",
@@ -192,6 +193,49 @@ def validate_faces(F, n_points: int, name: str = "faces", allow_empty: bool = Tr
             f"{name}: faces reference vertex indices {lo}..{hi} but there are {n_points} points"
         )
     return F
+
+
+def validate_normals(normals, n_points: int, name: str = "normals") -> np.ndarray | None:
+    """Check per-point normals against a cloud of ``n_points`` and return them as unit float64.
+
+    Parameters
+    ----------
+    normals : (N, 3) array_like, or None
+        One normal per point, any positive length (scanners write unit normals; others do
+        not). Their sign matters: it tells the two sides of a surface apart.
+    n_points : int
+        Number of points the normals belong to.
+    name : str
+        Prefix of error messages (a file name, or ``"normals"``).
+
+    Returns
+    -------
+    (N, 3) float64 of unit length, or None when ``normals`` is None
+
+    Raises
+    ------
+    InputError
+        Wrong shape or count, NaN or inf, or a normal of (near) zero length.
+    """
+    if normals is None:
+        return None
+    N = np.asarray(normals)
+    if N.dtype.kind not in "fiu":
+        raise InputError(f"{name}: normals must be numbers, got dtype {N.dtype}")
+    N = N.astype(np.float64)
+    if N.ndim != 2 or N.shape[1] != 3:
+        raise InputError(f"{name}: expected normals of shape (N, 3), got {N.shape}")
+    if len(N) != n_points:
+        raise InputError(f"{name}: {len(N)} normals for {n_points} points")
+    bad = ~np.isfinite(N).all(axis=1)
+    if bad.any():
+        raise InputError(f"{name}: normal of row {int(np.flatnonzero(bad)[0])} contains NaN or inf")
+    length = np.linalg.norm(N, axis=1)
+    zero = length < 1e-12
+    if zero.any():
+        raise InputError(f"{name}: normal of row {int(np.flatnonzero(zero)[0])} has zero length "
+                         f"({int(zero.sum())} such rows)")
+    return N / length[:, None]
 
 
 def fingerprint(points) -> str:

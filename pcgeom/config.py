@@ -23,6 +23,7 @@ __all__ = [
     "OptimizerConfig",
     "LossWeights",
     "RefineConfig",
+    "LocalMeshConfig",
     "ParamConfig",
     "PRESETS",
     "get_preset",
@@ -33,6 +34,7 @@ __all__ = [
 OPTIMIZERS = ("rmsprop", "adam")
 DTYPES = ("float32", "float64")
 INIT_MAPS = ("random", "plane")
+FREE_MAPS = ("networks", "localmesh")
 NET_INITS = ("siren", "default")
 
 
@@ -191,6 +193,33 @@ class RefineConfig:
 
 
 @dataclass(frozen=True)
+class LocalMeshConfig:
+    """The local-mesh map of the free boundary (not in the paper; :mod:`pcgeom.localmesh`).
+
+    Same-sheet tangent fans of each point's neighbours, merged into a manifold mesh, then
+    LSCM. Used when :attr:`ParamConfig.free_map` is ``"localmesh"`` and the domain is free.
+    """
+
+    neighbours: int = 24
+    """Nearest neighbours each tangent fan is built from (face_human_choi with its normals:
+    0.0403 rad with 12, 0.0276 with 16, 0.0229 with 24, 0.0303 with 32)."""
+    normal_neighbours: int = 16
+    """Neighbours of the PCA normal estimate and its orientation, for a cloud without normals."""
+    refine_steps: int = 0
+    """Steps of the LEG refinement (:class:`RefineConfig`, same-sheet pairs) after LSCM.
+    0: none. Measured on face_human_choi from a 0.040 rad local-mesh map: 300 steps raise it to
+    0.051 rad, so it is off by default."""
+
+    def __post_init__(self) -> None:
+        for name in ("neighbours", "normal_neighbours"):
+            _count("LocalMeshConfig", name, getattr(self, name))
+            if getattr(self, name) < 3:
+                raise InputError(f"LocalMeshConfig.{name}: expected an int >= 3, "
+                                 f"got {getattr(self, name)}")
+        _count("LocalMeshConfig", "refine_steps", self.refine_steps, allow_zero=True)
+
+
+@dataclass(frozen=True)
 class ParamConfig:
     """Everything that defines a run; saved with every result and checkpoint."""
 
@@ -216,12 +245,19 @@ class ParamConfig:
     """Per-point refinement after the networks (``steps = 0``: none, as the paper)."""
     dtype: str = "float32"
     """Torch dtype of training, ``"float32"`` or ``"float64"``."""
+    free_map: str = "networks"
+    """How the free-boundary map is made: ``"networks"``, Algorithm 1 (paper), or
+    ``"localmesh"``, LSCM on a manifold mesh of same-sheet tangent fans
+    (:class:`LocalMeshConfig`). A bounded domain always trains the networks."""
+    local_mesh: LocalMeshConfig = LocalMeshConfig()
+    """Settings of the ``"localmesh"`` free map."""
 
     def __post_init__(self) -> None:
         _count("ParamConfig", "domain_samples", self.domain_samples)
         _count("ParamConfig", "max_stages", self.max_stages, allow_zero=True)
         _choice("ParamConfig", "init_map", self.init_map, INIT_MAPS)
         _choice("ParamConfig", "dtype", self.dtype, DTYPES)
+        _choice("ParamConfig", "free_map", self.free_map, FREE_MAPS)
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             expected = _field_types(ParamConfig)[f.name]
@@ -282,28 +318,33 @@ def config_from_dict(cls, data: dict, where: str | None = None):
 # --------------------------------------------------------------------------- presets
 
 
+_FAST_NETWORKS = ParamConfig(
+    schedule=ScheduleConfig(epochs=120, sigma=0.5, alpha_initial=2.0, alpha_final=20.0,
+                            epochs_min=30),
+    optimizer=OptimizerConfig(name="adam", lr=1e-3),
+    param_net=NetConfig(width=128, depth=3, init="siren", w0=5.0),
+    lambda_net=NetConfig(width=64, depth=2, init="siren", w0=5.0),
+    max_stages=2,
+    init_map="plane",
+    refine=RefineConfig(steps=1000),
+)
+
 PRESETS: dict[str, ParamConfig] = {
     # Section 6 exactly: E = 10000, B = 1024, sigma 0.5, alpha 2 -> 20, caps
     # (0.001, 100, 1000), RMSprop(alpha 0.99, lr 1e-4, momentum 0.9), beta (5, 1, 1),
     # randomly initialized sine networks, all stages until the batch is the cloud.
     "paper": ParamConfig(),
-    # Everyday use: Adam at 1e-3 on SIREN-initialized nets, the parametrization net
-    # starting from the best-fit-plane projection, for two short stages (sigma
-    # 0.5 -> 0.35, batches 1024 -> 2048) to get a smooth unfolded map, then the
-    # per-point refinement on local LEG pairs.
-    "fast": ParamConfig(
-        schedule=ScheduleConfig(
-            epochs=120, sigma=0.5, alpha_initial=2.0, alpha_final=20.0, epochs_min=30
-        ),
-        optimizer=OptimizerConfig(name="adam", lr=1e-3),
-        param_net=NetConfig(width=128, depth=3, init="siren", w0=5.0),
-        lambda_net=NetConfig(width=64, depth=2, init="siren", w0=5.0),
-        max_stages=2,
-        init_map="plane",
-        refine=RefineConfig(steps=1000),
-    ),
+    # Everyday use: the free boundary by the local-mesh map (LSCM on same-sheet tangent fans:
+    # seconds, and it unfolds where a scan doubles back), a bounded domain by `networks`.
+    "fast": dataclasses.replace(_FAST_NETWORKS, free_map="localmesh"),
+    # The networks for everyday use: Adam at 1e-3 on SIREN-initialized nets, the
+    # parametrization net starting from the best-fit-plane projection, for two short stages
+    # (sigma 0.5 -> 0.35, batches 1024 -> 2048) to get a smooth unfolded map, then the
+    # per-point refinement on local LEG pairs. It was `fast` before the local-mesh map.
+    "networks": _FAST_NETWORKS,
 }
-"""Named configs. ``paper`` is section 6 exactly; ``fast`` is the everyday default."""
+"""Named configs. ``paper`` is section 6 exactly; ``fast`` is the everyday default;
+``networks`` is ``fast`` with the networks for the free boundary too (the ``fast`` of 0.1.0)."""
 
 
 def get_preset(name: str, **overrides) -> ParamConfig:

@@ -28,6 +28,24 @@ class AngleReport:
     per_corner: np.ndarray
     """(M, 3) absolute angle differences."""
 
+    # The order statistics are read from per_corner, so they can never disagree with it.
+    @property
+    def median_abs(self) -> float:
+        """Median over all ``3 M`` corners of the absolute angle difference (radians)."""
+        return float(np.median(self.per_corner))
+
+    @property
+    def p95_abs(self) -> float:
+        """95th percentile over all ``3 M`` corners (radians), linearly interpolated between
+        order statistics (``numpy.percentile``'s default): for sorted values ``d_0 <= ... <=
+        d_(K-1)``, ``d_i + t (d_(i+1) - d_i)`` with ``i + t = 0.95 (K - 1)``."""
+        return float(np.percentile(self.per_corner, 95.0))
+
+    @property
+    def max_abs(self) -> float:
+        """Largest absolute angle difference over all corners (radians)."""
+        return float(self.per_corner.max())
+
 
 def _import_igl():
     try:
@@ -71,7 +89,8 @@ def angle_distortion(V, F, U) -> AngleReport:
     Returns
     -------
     AngleReport
-        ``mean_abs`` (radians), ``flipped``, ``n_faces`` and ``per_corner`` (M, 3).
+        ``mean_abs`` (radians), ``flipped``, ``n_faces`` and ``per_corner`` (M, 3); its
+        ``median_abs``, ``p95_abs`` and ``max_abs`` are order statistics of ``per_corner``.
 
     Raises
     ------

@@ -258,8 +258,8 @@ def test_example_peaks3_writes_map(tmp_path, monkeypatch, capsys, tiny):
         np.testing.assert_array_equal(z["faces"], F)
         assert json.loads(str(z["config_json"])) == _tiny("fast").to_dict()
         history = json.loads(str(z["history_json"]))
-    assert [row["kind"] for row in history] == ["network", "refine"]
-    assert all(np.isfinite(row["total"]) for row in history)
+    # fast maps the free boundary by the local mesh (normals estimated: the example has none).
+    assert [(row["kind"], row["normals"]) for row in history] == [("localmesh", "estimated")]
 
     # The library reads it back, and it says what made it.
     result = ParamResult.load(tmp_path / "peaks3_uv.npz", n_points=len(V))
@@ -271,7 +271,8 @@ def test_example_peaks3_writes_map(tmp_path, monkeypatch, capsys, tiny):
     lines = out.splitlines()
     assert lines[0] == f"peaks3: {len(V)} points -> peaks3_uv.npz"
     assert lines[1].startswith("preset fast, domain free, device cpu, seed 0: ")
-    assert lines[2].startswith("final loss: total ")
+    assert lines[2] == ("method localmesh, normals estimated (a cloud without normals may fold "
+                        "where two sheets of its surface touch)")
     assert re.fullmatch(r"angle distortion: mean \d\.\d{4} rad over 11250 triangles, "
                         r"\d+ flipped \(\d+\.\d\d%\)", lines[3])
 
@@ -364,11 +365,12 @@ def test_resume_from_foreign_checkpoint_is_an_error(tmp_path, capsys, tiny):
     V, _ = _grid()
     src = _write_txt(tmp_path / "scan.txt", V)
     ckpt = tmp_path / "scan_uv.ckpt"
-    parametrize(V, "free", config=_tiny("fast"), device="cpu", seed=1, checkpoint=ckpt,
+    parametrize(V, "free", config=_tiny("networks"), device="cpu", seed=1, checkpoint=ckpt,
                 progress=False)
     assert ckpt.exists()
-    _fails(capsys, ["param", str(src), "--resume", "--quiet"],
-           "scan_uv.ckpt: checkpoint is from a different input, domain, landmarks, config or seed")
+    _fails(capsys, ["param", str(src), "--preset", "networks", "--resume", "--quiet"],
+           "scan_uv.ckpt: checkpoint is from a different input, normals, domain, landmarks, "
+           "config or seed")
     assert _files(tmp_path) == {"scan.txt", "scan_uv.ckpt"}
 
 
@@ -401,6 +403,60 @@ def test_evaluate(tmp_path, capsys, mesh_and_map):
     out = capsys.readouterr().out
     assert f"angle distortion: mean {expected.mean_abs:.4f} rad over {len(F)} triangles, " \
            "0 flipped (0.00%)" in out
+    assert (f"  median {expected.median_abs:.4f}, 95th percentile {expected.p95_abs:.4f}, "
+            f"max {expected.max_abs:.4f} rad") in out
+    assert "baselines on the same mesh:" in out
+    assert "  LSCM, 2 pinned vertices (libigl, true mesh): " in out
+    assert "  harmonic disk map (libigl, true mesh): " in out
+
+
+def test_evaluate_json_has_the_order_statistics_and_the_baselines(tmp_path, capsys,
+                                                                    mesh_and_map):
+    from pcgeom.apps.baselines import harmonic_disk, lscm
+
+    V, F, mesh, mapped = mesh_and_map
+    assert cli.main(["evaluate", str(mesh), str(mapped), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    expected = angle_distortion(V, F, V[:, :2] * 0.5)
+    assert report["median_abs_angle_rad"] == expected.median_abs
+    assert report["p95_abs_angle_rad"] == expected.p95_abs
+    assert report["max_abs_angle_rad"] == expected.max_abs
+    assert report["landmark_hausdorff"] is None and report["domain_hausdorff"] is None
+    assert report["plot"] is None and report["plots"] is None
+    assert set(report["baselines"]) == {"lscm", "harmonic_disk"}
+    for name, method in (("lscm", lscm), ("harmonic_disk", harmonic_disk)):
+        base = report["baselines"][name]
+        assert base["error"] is None and base["seconds"] >= 0
+        assert base["max_abs_angle_rad"] == angle_distortion(V, F, method(V, F)).max_abs
+
+    assert cli.main(["evaluate", str(mesh), str(mapped), "--json", "--no-baselines"]) == 0
+    assert json.loads(capsys.readouterr().out)["baselines"] == {}
+
+
+def test_evaluate_plot_dir_writes_the_three_figures(tmp_path, capsys, tiny):
+    V, F = _grid()
+    mesh = tmp_path / "mesh.ply"
+    write_ply_atomic(mesh, V, F)
+    out = tmp_path / "m.npz"
+    assert cli.main(["param", str(mesh), "--quiet", "--out", str(out)]) == 0
+    capsys.readouterr()
+    figs = tmp_path / "figs"
+    assert cli.main(["evaluate", str(mesh), str(out), "--plot", str(figs), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    names = {"angles": "angle_histogram.png", "map": "map_angle_distortion.png",
+             "history": "history.png"}
+    assert report["plots"] == {k: str(figs / v) for k, v in names.items()}
+    for name in names.values():
+        assert (figs / name).read_bytes()[:8] == PNG_SIGNATURE
+    assert _files(figs) == set(names.values())  # no temporary file left behind
+
+    # A bare uv file has no history: two figures, into an existing directory.
+    bare = tmp_path / "bare.npz"
+    np.savez(bare, uv=V[:, :2])
+    assert cli.main(["evaluate", str(mesh), str(bare), "--plot", str(figs)]) == 0
+    captured = capsys.readouterr()
+    assert f"figures: {figs / names['angles']}, {figs / names['map']}" in captured.out
+    assert "history.png" not in captured.out
 
 
 def test_evaluate_errors(tmp_path, capsys, mesh_and_map):
@@ -431,8 +487,15 @@ def test_evaluate_errors(tmp_path, capsys, mesh_and_map):
     _fails(capsys, ["evaluate", str(mesh), str(mesh)],
            "mesh.ply: map must have extension '.npz', got '.ply'")
     _fails(capsys, ["evaluate", str(mesh), str(mapped), "--plot", str(tmp_path / "a.pdf")],
-           "a.pdf: output must have extension '.png', got '.pdf'")
+           "a.pdf: --plot takes a directory or a .png file, got '.pdf'")
     assert not (tmp_path / "a.pdf").exists()
+    _fails(capsys, ["evaluate", str(mesh), str(mapped), "--plot", str(tmp_path / "no" / "figs")],
+           f"figs: plot directory's parent {str(tmp_path / 'no')!r} does not exist")
+    _fails(capsys, ["evaluate", str(mesh), str(mapped), "--plot", str(tmp_path / "no" / "a.png")],
+           "a.png: output directory")
+    (tmp_path / "figs").write_text("a file, not a directory")
+    _fails(capsys, ["evaluate", str(mesh), str(mapped), "--plot", str(tmp_path / "figs")],
+           "figs: --plot takes a directory, got a file")
 
 
 def test_evaluate_reports_what_made_a_pcgeom_map(tmp_path, capsys, tiny):
@@ -473,7 +536,7 @@ def test_each_command_has_its_own_main(capsys):
     code = param_command.main(["--preset", "slow", "--example", "peaks3"])
     assert code == 2
     assert capsys.readouterr().err == (
-        "pcgeom: error: unknown preset 'slow'; choose one of: paper, fast\n")
+        "pcgeom: error: unknown preset 'slow'; choose one of: paper, fast, networks\n")
 
 
 def test_python_dash_m_pcgeom_works_like_pcgeom():

@@ -46,7 +46,7 @@ def test_paper_preset_holds_section_6():
 
 
 def test_unknown_preset_lists_the_choices():
-    with pytest.raises(InputError, match=r"^unknown preset 'turbo'; choose one of: paper, fast$"):
+    with pytest.raises(InputError, match=r"^unknown preset 'turbo'; choose one of: paper, fast, networks$"):
         get_preset("turbo")
 
 
@@ -189,8 +189,8 @@ def test_config_from_dict_missing_keys_take_the_defaults():
 
 
 def test_config_from_dict_rejects_unknown_keys_listing_the_known_fields():
-    known = ("domain_samples, dtype, init_map, lambda_net, max_stages, optimizer, param_net, "
-             "refine, schedule, weights")
+    known = ("domain_samples, dtype, free_map, init_map, lambda_net, local_mesh, max_stages, "
+             "optimizer, param_net, refine, schedule, weights")
     with pytest.raises(InputError) as info:
         ParamConfig.from_dict({"max_stage": 2, "seed": 0})
     assert str(info.value) == f"ParamConfig: unknown field(s) max_stage, seed; known: {known}"

@@ -241,10 +241,11 @@ def test_garbage_content(tmp_path, name, content, match):
 
 
 def test_unknown_extension_lists_supported(tmp_path):
-    (tmp_path / "scan.las").write_bytes(b"LASF")
-    match = r"scan\.las: unknown extension '\.las'; supported: \.csv, \.npz, \.obj, \.off, \.ply"
+    (tmp_path / "scan.e57").write_bytes(b"ASTM-E57")
+    match = (r"scan\.e57: unknown extension '\.e57'; "
+             r"supported: \.csv, \.las, \.laz, \.npz, \.obj, \.off, \.ply")
     with pytest.raises(InputError, match=match):
-        read_points(tmp_path / "scan.las")
+        read_points(tmp_path / "scan.e57")
     with pytest.raises(InputError, match=r"unknown extension \(none\)"):
         read_points(tmp_path / "noext")
 
@@ -362,7 +363,7 @@ def test_npz_writer_leaves_nothing_on_failure(tmp_path):
 def test_ply_writer_leaves_nothing_on_failure_mid_write(tmp_path, monkeypatch):
     import pcgeom.io.points as points_module
 
-    def half_write(f, V, F):
+    def half_write(f, V, F, N):
         f.write(b"ply\nformat binary_little_endian 1.0\n")
         raise OSError("disk full")
 

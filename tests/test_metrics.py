@@ -105,6 +105,11 @@ def test_single_triangle_by_hand():
     np.testing.assert_allclose(report.per_corner, [[np.pi / 6, np.pi / 12, np.pi / 12]])
     assert report.mean_abs == pytest.approx(np.pi / 9)
     assert report.flipped == 0 and report.n_faces == 1
+    # Sorted pi/12, pi/12, pi/6: the 95th percentile sits at 0.95 * 2 = 1.9, nine tenths of
+    # the way from the second value to the third.
+    assert report.median_abs == pytest.approx(np.pi / 12)
+    assert report.p95_abs == pytest.approx(np.pi / 12 + 0.9 * np.pi / 12)
+    assert report.max_abs == pytest.approx(np.pi / 6)
 
 
 @requires_igl

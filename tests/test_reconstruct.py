@@ -5,6 +5,7 @@ rule, gmsh's session handling and the command line."""
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -264,8 +265,10 @@ def test_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, sheet, m
 
     _fails(capsys, ["reconstruct", str(tmp_path / "missing.xyz"), "--out", str(out)],
            "missing.xyz: no such file")
-    _fails(capsys, ["reconstruct", str(src), "--out", str(tmp_path / "mesh.obj")],
-           "mesh.obj: output must have extension '.ply', got '.obj'")
+    _fails(capsys, ["reconstruct", str(src), "--out", str(tmp_path / "mesh.stl")],
+           "mesh.stl: mesh output must have extension .ply or .obj, got '.stl'")
+    _fails(capsys, ["reconstruct", str(src), "--out", str(tmp_path / "mesh")],
+           "mesh: mesh output must have extension .ply or .obj, got none")
     _fails(capsys, ["reconstruct", str(src), "--out", str(out), "--target-vertices", "2"],
            "argument --target-vertices: expected an integer >= 3, got 2")
     _fails(capsys, ["reconstruct", str(src), "--out", str(out), "--size", "fine"],
@@ -280,6 +283,94 @@ def test_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, sheet, m
                     str(tmp_path / "nowhere" / "mesh.ply")], "does not exist")
     _fails(capsys, ["reconstruct", str(src)], "the following arguments are required: --out")
     assert {p.name for p in tmp_path.iterdir()} == before  # nothing written
+
+
+def test_cli_refuses_a_map_with_no_loop_to_mesh(tmp_path, capsys, monkeypatch):
+    """Ten points whose map is a hexagon around four points: its only loop has 6 points, under
+    the minimum loop size, so there is nothing to mesh."""
+    angles = np.linspace(0.0, 2 * np.pi, 7)[:-1]
+    U = np.vstack([np.column_stack([np.cos(angles), np.sin(angles)]),
+                   0.4 * np.column_stack([np.cos(angles[:4] + 0.3), np.sin(angles[:4] + 0.3)])])
+    src = tmp_path / "ten.xyz"
+    np.savetxt(src, np.column_stack([U, 0.1 * U[:, 0] ** 2]))
+    P = read_points(src).points
+    result = parametrize(P, "free", config=_tiny("fast"), progress=False)
+    map_path = replace(result, uv=U).save(tmp_path / "ten.npz")
+    monkeypatch.setattr(reconstruct_command, "parametrize", None)  # no training from here on
+    out = tmp_path / "mesh.obj"
+    _fails(capsys, ["reconstruct", str(src), "--map", str(map_path), "--out", str(out)],
+           f"{src}: its map has no boundary loop of 8 points or more (1 smaller ones dropped); "
+           "the reconstruction would be empty")
+    assert not out.exists()
+
+
+def test_missing_gmsh_names_the_install_command(tmp_path, capsys, monkeypatch, sheet):
+    from pcgeom.apps.reconstruct import require_gmsh
+
+    monkeypatch.setitem(sys.modules, "gmsh", None)  # makes `import gmsh` raise ImportError
+    with pytest.raises(ImportError, match=r"^surface reconstruction needs gmsh: "
+                                          r"pip install 'gmsh>=4\.11'$"):
+        require_gmsh()
+    src, map_path, _, _ = sheet
+    monkeypatch.setattr(reconstruct_command, "parametrize", None)
+    out = tmp_path / "mesh.ply"
+    assert cli.main(["reconstruct", str(src), "--out", str(out)]) == 1  # before any training
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err == ("pcgeom: error: ImportError: surface reconstruction needs gmsh: "
+                            "pip install 'gmsh>=4.11'\n")
+    assert not out.exists()
+
+
+def test_a_gmsh_that_cannot_load_names_the_system_libraries(monkeypatch):
+    import builtins
+
+    from pcgeom.apps.reconstruct import require_gmsh
+
+    real_import = builtins.__import__
+
+    def failing(name, *args, **kwargs):
+        if name == "gmsh":
+            raise OSError("libGLU.so.1: cannot open shared object file: No such file")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.delitem(sys.modules, "gmsh", raising=False)
+    monkeypatch.setattr(builtins, "__import__", failing)
+    with pytest.raises(ImportError, match=r"gmsh is installed but cannot load \(libGLU\.so\.1: "
+                                          r".*\); on Debian or Ubuntu: apt-get install libgl1 "):
+        require_gmsh()
+
+
+def test_cli_writes_obj_by_extension(tmp_path, capsys, sheet):
+    src, map_path, P, _ = sheet
+    meshes = {}
+    for ext in ("ply", "obj"):
+        out = tmp_path / f"mesh.{ext}"
+        code = cli.main(["reconstruct", str(src), "--map", str(map_path), "--target-vertices",
+                         "300", "--out", str(out), "--json"])
+        captured = capsys.readouterr()
+        assert code == 0, captured.err
+        assert json.loads(captured.out)["out"] == str(out)
+        meshes[ext] = read_points(out)
+    assert out.read_text().startswith("# pcgeom ")
+    np.testing.assert_array_equal(meshes["obj"].faces, meshes["ply"].faces)
+    np.testing.assert_allclose(meshes["obj"].points, meshes["ply"].points, rtol=0, atol=1e-14)
+    assert {p.name for p in tmp_path.iterdir() if p.name.startswith(".")} == set()
+
+
+def test_write_mesh_checks_its_input(tmp_path):
+    from pcgeom.apps.reconstruct import write_mesh
+
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    with pytest.raises(InputError, match=r"m\.off: mesh output must have extension "
+                                         r"\.ply or \.obj, got '\.off'"):
+        write_mesh(tmp_path / "m.off", V, [[0, 1, 2]])
+    with pytest.raises(InputError, match="F: expected at least one face, got none"):
+        write_mesh(tmp_path / "m.obj", V, np.zeros((0, 3), dtype=np.int64))
+    with pytest.raises(ValueError, match=r"V: expected shape \(K, 3\), got \(3, 2\)"):
+        write_mesh(tmp_path / "m.obj", V[:, :2], [[0, 1, 2]])
+    assert not list(tmp_path.iterdir())
+    assert write_mesh(tmp_path / "M.OBJ", V, [[0, 1, 2]]) == tmp_path / "M.OBJ"
 
 
 def test_help_has_examples(capsys):

@@ -216,13 +216,13 @@ def _single_threaded(one_thread):
 
 
 def _small(**changes) -> ParamConfig:
-    """The ``fast`` preset for a 576-point cloud: batches of 128, 300 refinement steps.
+    """The ``networks`` preset for a 576-point cloud: batches of 128, 300 refinement steps.
 
     Batches of 128 give 5 steps per epoch (600 in stage 1). With fewer steps the networks
     often stay folded (a third of the triangles flipped): 40 epochs of 256 in 5 of 16 runs,
     120 epochs of 256 in 2 of 12; 120 epochs of 128 (this config) in 1 of 24.
     """
-    fast = get_preset("fast")
+    fast = get_preset("networks")
     cfg = dataclasses.replace(
         fast,
         schedule=dataclasses.replace(fast.schedule, batch_points=128, batch_domain=128),
@@ -234,7 +234,7 @@ def _small(**changes) -> ParamConfig:
 def _tiny(**changes) -> ParamConfig:
     """Seconds-long runs for contract checks: 2 stages of a few epochs, small nets."""
     cfg = get_preset(
-        "fast",
+        "networks",
         schedule=ScheduleConfig(epochs=4, epochs_min=2, batch_points=128, batch_domain=128),
         param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),
         lambda_net=NetConfig(width=16, depth=1, init="siren", w0=5.0),
@@ -439,7 +439,7 @@ def _load(path):
 
 
 _STATE_KEYS = {"networks", "gen", "torch_rng", "history", "next_stage", "fingerprint", "config",
-               "seed", "domain", "landmarks"}
+               "seed", "domain", "normals", "landmarks"}
 
 
 def test_checkpoint_resume_reproduces_the_uninterrupted_run(tmp_path, peaks):
@@ -494,8 +494,8 @@ def test_resume_from_a_different_run_is_refused(tmp_path, peaks):
         same | dict(landmarks=[(V[:3], np.zeros((2, 2)))]),
     ]
     for other in others:
-        with pytest.raises(InputError, match="checkpoint is from a different input, domain, "
-                                             "landmarks, config or seed"):
+        with pytest.raises(InputError, match="checkpoint is from a different input, normals, "
+                                             "domain, landmarks, config or seed"):
             parametrize(other["points"], other["domain"], config=other["config"], device="cpu",
                         seed=other["seed"], landmarks=other["landmarks"], checkpoint=ckpt,
                         resume=True, progress=False)
@@ -693,7 +693,7 @@ def test_domain_none_is_a_type_error_pointing_to_free(peaks, monkeypatch):
 
 def test_on_stage_sees_every_stage_and_the_final_map():
     V, _ = peaks_surface("peaks3", n_side=12)
-    cfg = get_preset("fast", max_stages=2, refine=RefineConfig(steps=5))
+    cfg = get_preset("networks", max_stages=2, refine=RefineConfig(steps=5))
     cfg = dataclasses.replace(
         cfg, schedule=dataclasses.replace(cfg.schedule, epochs=2, epochs_min=1, batch_points=32)
     )

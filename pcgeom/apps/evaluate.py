@@ -2,19 +2,76 @@
 
 Wraps :mod:`pcgeom.metrics` (one implementation of each measure) into one plain dict per map,
 the same for a fresh result and for a map file read back with ``ParamResult.load``.
+:func:`evaluate_map` adds the classical baselines on the same reference mesh (libigl's LSCM
+and harmonic disk map, timed) and :func:`plot_evaluation` draws the figures of
+``pcgeom evaluate --plot DIR``.
 """
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
 import numpy as np
 
+from ..cloud import _one_line
 from ..domains import Domain
-from ..metrics import angle_distortion, domain_hausdorff
+from ..metrics import AngleReport, angle_distortion, domain_hausdorff
+from .baselines import BASELINES
 
-__all__ = ["map_report"]
+__all__ = ["map_report", "angle_figures", "landmark_hausdorff", "EVALUATION_BASELINES",
+           "BaselineRun", "run_baselines", "Evaluation", "evaluate_map",
+           "vertex_angle_distortion", "PLOT_FILES", "plot_evaluation", "plot_angle_histograms"]
+
+ANGLE_KEYS = ("mean_abs_angle_rad", "median_abs_angle_rad", "p95_abs_angle_rad",
+              "max_abs_angle_rad", "flipped", "n_faces", "flipped_percent")
+"""The keys of :func:`angle_figures`, in report order."""
+
+EVALUATION_BASELINES = ("lscm", "harmonic_disk")
+"""The baselines :func:`evaluate_map` runs by default: the mesh-based maps of
+:data:`pcgeom.apps.baselines.BASELINES`."""
+
+PLOT_FILES = {"angles": "angle_histogram.png", "map": "map_angle_distortion.png",
+              "history": "history.png"}
+"""The figures :func:`plot_evaluation` writes into its directory, by key."""
 
 
-def map_report(U, domain: Domain | None = None, V=None, F=None) -> dict:
+def angle_figures(angles: AngleReport | None) -> dict:
+    """The angle keys of a report (:data:`ANGLE_KEYS`): mean, median, 95th percentile and
+    maximum absolute angle distortion over all triangle corners (radians, see
+    :class:`pcgeom.metrics.AngleReport`), flipped triangles, their count and percentage.
+    All None when ``angles`` is None (no reference faces)."""
+    if angles is None:
+        return dict.fromkeys(ANGLE_KEYS)
+    return {"mean_abs_angle_rad": angles.mean_abs, "median_abs_angle_rad": angles.median_abs,
+            "p95_abs_angle_rad": angles.p95_abs, "max_abs_angle_rad": angles.max_abs,
+            "flipped": angles.flipped, "n_faces": angles.n_faces,
+            "flipped_percent": 100.0 * angles.flipped / angles.n_faces}
+
+
+def landmark_hausdorff(history) -> list[float] | None:
+    """The exact Hausdorff distance of each landmark set to its targets (domain units), as
+    the last stage of training recorded it (``history[-1]["landmark_hausdorff"]``, from
+    :func:`pcgeom.train.objective.landmark_fit`); None for a run without landmarks or a map
+    without history."""
+    if not history:
+        return None
+    last = history[-1]
+    value = last.get("landmark_hausdorff") if isinstance(last, dict) else None
+    return None if value is None else [float(d) for d in value]
+
+
+def _report(U: np.ndarray, domain: Domain | None, angles: AngleReport | None,
+            history) -> dict:
+    report = {"n_points": int(len(U)), **angle_figures(angles), "domain_hausdorff": None,
+              "landmark_hausdorff": landmark_hausdorff(history)}
+    if domain is not None and domain.bounded:
+        report["domain_hausdorff"] = domain_hausdorff(U, domain)
+    return report
+
+
+def map_report(U, domain: Domain | None = None, V=None, F=None, history=None) -> dict:
     """Quality figures of a map, as plain data (JSON-ready).
 
     Parameters
@@ -25,21 +82,210 @@ def map_report(U, domain: Domain | None = None, V=None, F=None) -> dict:
         Its parameter domain; a bounded one adds ``domain_hausdorff``.
     V, F : (N, 3) and (M, 3) array_like, optional
         Reference mesh (one vertex per row of ``U``); adds the angle distortion and flips.
+    history : list of dict, optional
+        ``ParamResult.history``; a run with landmarks adds ``landmark_hausdorff``.
 
     Returns
     -------
     dict
-        ``n_points``; ``mean_abs_angle_rad``, ``flipped``, ``n_faces`` and ``flipped_percent``
-        when faces are given; ``domain_hausdorff`` when the domain is bounded. Keys whose
-        measure does not apply are None.
+        ``n_points``; when faces are given, :func:`angle_figures` (``mean_abs_angle_rad``,
+        ``median_abs_angle_rad``, ``p95_abs_angle_rad``, ``max_abs_angle_rad``, ``flipped``,
+        ``n_faces``, ``flipped_percent``); ``domain_hausdorff`` when the domain is bounded;
+        ``landmark_hausdorff`` (one distance per landmark set) when the history records one.
+        Keys whose measure does not apply are None.
     """
     U = np.asarray(U, dtype=np.float64)
-    report = {"n_points": int(len(U)), "mean_abs_angle_rad": None, "flipped": None,
-              "n_faces": None, "flipped_percent": None, "domain_hausdorff": None}
-    if F is not None:
-        rep = angle_distortion(V, F, U)
-        report.update(mean_abs_angle_rad=rep.mean_abs, flipped=rep.flipped, n_faces=rep.n_faces,
-                      flipped_percent=100.0 * rep.flipped / rep.n_faces)
-    if domain is not None and domain.bounded:
-        report["domain_hausdorff"] = domain_hausdorff(U, domain)
-    return report
+    angles = angle_distortion(V, F, U) if F is not None else None
+    return _report(U, domain, angles, history)
+
+
+@dataclass(frozen=True)
+class BaselineRun:
+    """One baseline map of the reference mesh, timed and measured (:func:`run_baselines`)."""
+
+    name: str
+    """Key in :data:`pcgeom.apps.baselines.BASELINES`."""
+    label: str
+    """What it is, for people."""
+    seconds: float | None
+    """Wall time of the map itself (not of its measurement); None when it failed."""
+    angles: AngleReport | None
+    """Its angle distortion on the mesh; None when it failed."""
+    error: str | None = None
+    """One line saying why the baseline could not run (e.g. a closed mesh), else None."""
+
+    def to_dict(self) -> dict:
+        """JSON-ready: ``label``, ``seconds``, ``error`` and :func:`angle_figures`."""
+        return {"label": self.label, "seconds": self.seconds, "error": self.error,
+                **angle_figures(self.angles)}
+
+
+def run_baselines(V, F, names=EVALUATION_BASELINES) -> list[BaselineRun]:
+    """Map the reference mesh ``(V, F)`` with each named baseline, timing it, and measure it.
+
+    A baseline that cannot handle the mesh (``ValueError``: no boundary loop, for example)
+    gives a run with its ``error`` set instead of stopping the others.
+
+    Parameters
+    ----------
+    V : (N, 3) array_like
+    F : (M, 3) array_like of int
+    names : sequence of str
+        Keys of :data:`pcgeom.apps.baselines.BASELINES`.
+
+    Returns
+    -------
+    list of BaselineRun
+        In the order of ``names``.
+
+    Raises
+    ------
+    ValueError
+        An unknown name (the message lists the known ones).
+    ImportError
+        libigl is not installed.
+    """
+    names = list(names)
+    unknown = [n for n in names if n not in BASELINES]
+    if unknown:
+        raise ValueError(f"baselines: unknown {unknown[0]!r}; expected some of "
+                         f"{', '.join(BASELINES)}")
+    runs = []
+    for name in names:
+        label, _, _, method = BASELINES[name]
+        t0 = time.perf_counter()
+        try:
+            U = method(V, F)
+        except ValueError as exc:
+            runs.append(BaselineRun(name, label, None, None, _one_line(exc)))
+            continue
+        seconds = time.perf_counter() - t0
+        runs.append(BaselineRun(name, label, seconds, angle_distortion(V, F, U)))
+    return runs
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """A map measured on its reference mesh, beside the baselines (:func:`evaluate_map`)."""
+
+    report: dict
+    """:func:`map_report`'s keys plus ``baselines``: name -> :meth:`BaselineRun.to_dict`."""
+    angles: AngleReport
+    """The map's angle distortion (per corner: the histograms and the coloured map)."""
+    baselines: tuple[BaselineRun, ...]
+    uv: np.ndarray
+    """(N, 2) the map."""
+    faces: np.ndarray
+    """(M, 3) the reference triangles."""
+    domain: Domain | None = None
+    history: list = field(default_factory=list)
+    """``ParamResult.history`` (empty for a bare ``uv`` file)."""
+
+
+def evaluate_map(U, V, F, domain: Domain | None = None, history=None,
+                 baselines=EVALUATION_BASELINES) -> Evaluation:
+    """Everything ``pcgeom evaluate`` reports on a map ``U`` of the mesh ``(V, F)``.
+
+    Parameters
+    ----------
+    U : (N, 2) array_like
+        The map, one row per vertex.
+    V : (N, 3) array_like
+    F : (M, 3) array_like of int
+        The reference mesh.
+    domain : Domain, optional
+        The map's domain (``ParamResult.domain``).
+    history : list of dict, optional
+        ``ParamResult.history``.
+    baselines : sequence of str
+        Baselines run on ``(V, F)`` (:func:`run_baselines`); empty for none.
+
+    Returns
+    -------
+    Evaluation
+    """
+    U = np.asarray(U, dtype=np.float64)
+    angles = angle_distortion(V, F, U)
+    report = _report(U, domain, angles, history)
+    runs = tuple(run_baselines(V, F, baselines))
+    report["baselines"] = {run.name: run.to_dict() for run in runs}
+    return Evaluation(report, angles, runs, U, np.asarray(F, dtype=np.int64), domain,
+                      list(history or []))
+
+
+def vertex_angle_distortion(F, per_corner, n_vertices: int) -> np.ndarray:
+    """Per-vertex angle distortion: the mean of ``per_corner`` over the corners at each vertex.
+
+    Parameters
+    ----------
+    F : (M, 3) array_like of int
+    per_corner : (M, 3) array_like
+        ``AngleReport.per_corner``.
+    n_vertices : int
+
+    Returns
+    -------
+    (n_vertices,) float64
+        NaN at a vertex of no triangle.
+    """
+    F = np.asarray(F, dtype=np.int64)
+    d = np.asarray(per_corner, dtype=np.float64)
+    if d.shape != F.shape:
+        raise ValueError(f"per_corner: expected shape {F.shape} (one value per corner of F), "
+                         f"got {d.shape}")
+    total = np.bincount(F.ravel(), weights=d.ravel(), minlength=n_vertices)  # (n,)
+    count = np.bincount(F.ravel(), minlength=n_vertices)  # (n,)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / count, np.nan)
+
+
+def _baseline_histograms(evaluation: Evaluation) -> dict:
+    return {run.label: run.angles.per_corner for run in evaluation.baselines
+            if run.angles is not None}
+
+
+def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None) -> dict:
+    """The figures of ``pcgeom evaluate --plot DIR``, written into ``out_dir`` (created if
+    absent; its parent must exist), atomically, named as in :data:`PLOT_FILES`:
+
+    - ``angles``: the map's per-corner angle distortion histogram, the baselines'
+      histograms overlaid on the same bins;
+    - ``map``: the map coloured by angle distortion (per vertex, the mean over its corners;
+      :func:`vertex_angle_distortion`), the domain's boundary in red when bounded;
+    - ``history``: the loss terms at the end of each stage (none for a map without history).
+
+    Returns
+    -------
+    dict
+        Key of :data:`PLOT_FILES` -> the Path written, or None when the figure does not
+        apply.
+    """
+    from .plot import plot_angle_histogram, plot_history, plot_map
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(exist_ok=True)
+    prefix = f"{title}: " if title else ""
+    written = {
+        "angles": plot_angle_histogram(
+            evaluation.angles.per_corner, out_dir / PLOT_FILES["angles"],
+            title=f"{prefix}angle distortion", others=_baseline_histograms(evaluation)),
+        "map": plot_map(
+            evaluation.uv, out_dir / PLOT_FILES["map"],
+            values=vertex_angle_distortion(evaluation.faces, evaluation.angles.per_corner,
+                                           len(evaluation.uv)),
+            domain=evaluation.domain,
+            title=f"{prefix}angle distortion per vertex (rad)"),
+        "history": None,
+    }
+    if evaluation.history:
+        written["history"] = plot_history(evaluation.history, out_dir / PLOT_FILES["history"],
+                                          title=f"{prefix}loss per stage")
+    return written
+
+
+def plot_angle_histograms(evaluation: Evaluation, path, title: str | None = None) -> Path:
+    """Only the ``angles`` figure of :func:`plot_evaluation`, at ``path`` (a ``.png``)."""
+    from .plot import plot_angle_histogram
+
+    return plot_angle_histogram(evaluation.angles.per_corner, path, title=title,
+                                others=_baseline_histograms(evaluation))

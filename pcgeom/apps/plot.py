@@ -227,8 +227,19 @@ def plot_history(history, path, title: str | None = None) -> Path:
     return _save_png_atomic(fig, path)
 
 
-def plot_angle_histogram(per_corner, path, bins: int = 60, title: str | None = None) -> Path:
-    """Histogram of per-corner absolute angle distortion, with its mean marked.
+def _corner_values(values, name: str) -> np.ndarray:
+    d = np.asarray(values, dtype=np.float64).ravel()
+    if d.size == 0:
+        raise ValueError(f"{name}: expected at least one value, got none")
+    if not np.isfinite(d).all():
+        raise ValueError(f"{name}: contains NaN or inf")
+    return d
+
+
+def plot_angle_histogram(per_corner, path, bins: int = 60, title: str | None = None,
+                         others=None, label: str = "map") -> Path:
+    """Histogram of per-corner absolute angle distortion, with its mean marked, optionally
+    overlaid with other maps' histograms (e.g. the baselines) on the same bins.
 
     Parameters
     ----------
@@ -238,9 +249,16 @@ def plot_angle_histogram(per_corner, path, bins: int = 60, title: str | None = N
     path : str or os.PathLike
         Output ``.png`` file, written atomically.
     bins : int
-        Number of histogram bins.
+        Number of histogram bins, spanning the values of every histogram drawn.
     title : str, optional
         Axes title.
+    others : mapping of str to array_like, optional
+        Label -> per-corner values of another map, drawn as an outline with its mean dashed
+        (the map's mean is the red line).
+        Shown as fractions of corners when given (maps of different meshes compare), as
+        corner counts otherwise.
+    label : str
+        Legend label of ``per_corner`` when ``others`` are drawn.
 
     Returns
     -------
@@ -252,22 +270,31 @@ def plot_angle_histogram(per_corner, path, bins: int = 60, title: str | None = N
     ValueError
         No values, non-finite values, ``bins < 1``, or a path without the ``.png`` extension.
     """
-    d = np.asarray(per_corner, dtype=np.float64).ravel()
-    if d.size == 0:
-        raise ValueError("per_corner: expected at least one value, got none")
-    if not np.isfinite(d).all():
-        raise ValueError("per_corner: contains NaN or inf")
+    d = _corner_values(per_corner, "per_corner")
     if isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1:
         raise ValueError(f"bins: expected a positive int, got {bins!r}")
+    others = {str(k): _corner_values(v, f"others[{k!r}]") for k, v in (others or {}).items()}
 
     fig = _new_figure((6.4, 4.2))
     ax = fig.add_subplot()
-    ax.hist(d, bins=int(bins), color="tab:blue", alpha=0.85)
+    top = max([float(d.max())] + [float(v.max()) for v in others.values()])
+    edges = np.linspace(0.0, top if top > 0 else 1.0, int(bins) + 1)
+    density = bool(others)
+    weights = (lambda v: np.full(v.size, 1.0 / v.size)) if density else (lambda v: None)
     mean = float(d.mean())
-    ax.axvline(mean, color="red", linewidth=1.2, label=f"mean {mean:.4f} rad")
+    ax.hist(d, bins=edges, weights=weights(d), color="tab:blue", alpha=0.6 if others else 0.85,
+            label=f"{label} (mean {mean:.4f} rad)" if others else None)
+    ax.axvline(mean, color="red", linewidth=1.2,
+               label=None if others else f"mean {mean:.4f} rad")
+    colours = ["black", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
+    for i, (other, v) in enumerate(others.items()):
+        colour = colours[i % len(colours)]
+        ax.hist(v, bins=edges, weights=weights(v), histtype="step", color=colour,
+                linewidth=1.4, label=f"{other} (mean {float(v.mean()):.4f} rad)")
+        ax.axvline(float(v.mean()), color=colour, linewidth=1.0, linestyle="--")
     ax.set_xlabel("|angle in 3D - angle in map| (rad)")
-    ax.set_ylabel("triangle corners")
-    ax.legend()
+    ax.set_ylabel("fraction of triangle corners" if density else "triangle corners")
+    ax.legend(fontsize="small" if others else None)
     if title:
         ax.set_title(title)
     return _save_png_atomic(fig, path)

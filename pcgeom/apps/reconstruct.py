@@ -36,24 +36,120 @@ oriented wherever the map is one-to-one (its normal is the one the map's orienta
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 
-from ..cloud import _one_line, validate_points
+from ..cloud import _one_line, validate_faces, validate_points
 from ..errors import InputError
+from ..io import check_writable, write_atomic, write_ply_atomic
 from .boundary import BoundaryLoops, _validate_map
 
-__all__ = ["reconstruct_surface", "lift", "mesh_region", "mesh_report", "SIZES"]
+__all__ = ["reconstruct_surface", "lift", "mesh_region", "mesh_report", "SIZES",
+           "require_gmsh", "MESH_FORMATS", "check_mesh_path", "write_mesh"]
 
 SIZES = ("uniform", "adaptive")
 """Mesh size rules that :func:`reconstruct_surface` implements."""
 
 
-def _gmsh():
+GMSH_INSTALL = "pip install 'gmsh>=4.11'"
+GMSH_SYSTEM_LIBS = "libgl1 libglu1-mesa libxcursor1 libxft2 libxinerama1"
+
+
+def require_gmsh():
+    """The ``gmsh`` module, or an ImportError that says how to get it.
+
+    Call it before any long work (the CLI does, before training) so a missing gmsh fails
+    first.
+
+    Raises
+    ------
+    ImportError
+        gmsh is not installed (the message names ``pip install 'gmsh>=4.11'``), or its shared
+        library cannot load (the message names the system libraries it needs on Debian or
+        Ubuntu).
+    """
     try:
         import gmsh
     except ImportError as exc:
-        raise ImportError("surface reconstruction needs gmsh: pip install 'gmsh>=4.11'") from exc
+        raise ImportError(f"surface reconstruction needs gmsh: {GMSH_INSTALL}") from exc
+    except OSError as exc:  # the wheel is there but libgmsh cannot load its X/GL libraries
+        raise ImportError(f"gmsh is installed but cannot load ({' '.join(str(exc).split())}); "
+                          f"on Debian or Ubuntu: apt-get install {GMSH_SYSTEM_LIBS}") from exc
     return gmsh
+
+
+_gmsh = require_gmsh  # the former private name, still imported by other modules
+
+MESH_FORMATS = ("ply", "obj")
+"""File formats :func:`write_mesh` writes, by extension."""
+
+
+def check_mesh_path(path) -> Path:
+    """``path`` as a Path, checked (before any work) to be a writable ``.ply`` or ``.obj``.
+
+    Raises
+    ------
+    InputError
+        Another extension (the message lists :data:`MESH_FORMATS`), or anything
+        :func:`pcgeom.io.check_writable` refuses.
+    """
+    ext = Path(path).suffix.lower().lstrip(".")
+    if ext not in MESH_FORMATS:
+        got = repr(Path(path).suffix) if ext else "none"
+        raise InputError(f"{os.fspath(path)}: mesh output must have extension "
+                         f"{' or '.join('.' + f for f in MESH_FORMATS)}, got {got}")
+    return check_writable(path, ext)
+
+
+def write_mesh(path, V, F) -> Path:
+    """Write the triangle mesh ``(V, F)`` atomically, in the format of ``path``'s extension.
+
+    ``.ply``: binary PLY (:func:`pcgeom.io.write_ply_atomic`, float64 coordinates, exact).
+    ``.obj``: Wavefront OBJ from trimesh's exporter, vertices and faces only, coordinates
+    with 17 decimal places: rounded by at most 5e-18, so exact in float64 for magnitudes of
+    0.1 or more.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    V : (K, 3) array_like
+    F : (M, 3) array_like of int
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    InputError
+        A bad path (:func:`check_mesh_path`), no faces, or bad faces
+        (:func:`pcgeom.cloud.validate_faces`).
+    ValueError
+        Vertices of the wrong shape or not finite.
+    """
+    path = check_mesh_path(path)
+    V = np.asarray(V, dtype=np.float64)
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise ValueError(f"V: expected shape (K, 3), got {V.shape}")
+    if not np.isfinite(V).all():
+        raise ValueError("V: contains NaN or inf")
+    F = validate_faces(F, len(V), name="F", allow_empty=False)
+    if path.suffix.lower() == ".ply":
+        write_ply_atomic(path, V, F)
+        return path
+    import trimesh
+    from trimesh.exchange.obj import export_obj
+
+    from .._version import __version__
+
+    mesh = trimesh.Trimesh(vertices=V, faces=F, process=False)  # process=False: keep rows
+    text = export_obj(mesh, include_normals=False, include_color=False, include_texture=False,
+                      digits=17, header=f"pcgeom {__version__}")
+    write_atomic(path, lambda f: f.write(text.encode("utf-8")))
+    return path
 
 
 def _polygons(U: np.ndarray, loops: BoundaryLoops) -> list[np.ndarray]:
@@ -83,7 +179,7 @@ def _gmsh_mesh(polygons: list[np.ndarray], size: float,
 
     Returns the 2D vertices (K, 2) and the triangles (M, 3) int64, counter-clockwise.
     """
-    gmsh = _gmsh()
+    gmsh = require_gmsh()
     gmsh.initialize(readConfigFiles=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)

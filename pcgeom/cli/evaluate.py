@@ -1,27 +1,40 @@
-"""``pcgeom evaluate``: angle distortion and flips of a saved map on a reference mesh."""
+"""``pcgeom evaluate``: angle distortion and flips of a saved map on a reference mesh, beside
+libigl's LSCM and harmonic disk map of the same mesh."""
 
 from __future__ import annotations
 
 import json
+import os
 import sys
+from pathlib import Path
 
-from ..apps.evaluate import map_report
+from ..apps.evaluate import EVALUATION_BASELINES, PLOT_FILES, evaluate_map
 from ..errors import InputError
 from ..io import ParamResult, check_writable, read_points
-from ._common import EXIT_OK, print_angles, run_command, standalone_parser
+from ._common import EXIT_OK, distinct_paths, print_angles, run_command, standalone_parser
 
 __all__ = ["configure", "run", "main"]
 
 NAME = "evaluate"
-HELP = "angle distortion and flips of a saved map on a reference mesh"
-DESCRIPTION = ("Angle distortion and flipped triangles of a map written by 'pcgeom param', "
-               "measured on a mesh with one vertex per row of the map.")
-EPILOG = """\
+HELP = "angle distortion and flips of a saved map on a reference mesh, beside baselines"
+DESCRIPTION = ("Angle distortion (mean, median, 95th percentile, maximum) and flipped "
+               "triangles of a map written by 'pcgeom param', measured on a mesh with one "
+               "vertex per row of the map, beside libigl's LSCM and harmonic disk map of the "
+               "same mesh (timed).")
+EPILOG = f"""\
 examples:
   pcgeom evaluate mesh.ply mesh_uv.npz
-  pcgeom evaluate mesh.obj mesh_uv.npz --plot angles.png --json
+  pcgeom evaluate mesh.obj mesh_uv.npz --plot figures/ --json
+      writes figures/{PLOT_FILES['angles']} (the map's angle histogram over the baselines'),
+      figures/{PLOT_FILES['map']} (the map coloured by angle distortion) and
+      figures/{PLOT_FILES['history']} (the loss terms per stage)
+  pcgeom evaluate mesh.ply mesh_uv.npz --plot angles.png --no-baselines
+      a .png path writes the angle histogram only
 
 MAP.npz is a file written by 'pcgeom param' (pcgeom.ParamResult), one row per vertex of MESH.
+The Hausdorff distance of the map to its domain is reported for a bounded domain, and that of
+each landmark set to its targets for a map trained with landmarks (its last stage's record).
+The baselines need a mesh with a boundary; on a closed mesh they are reported as not run.
 """
 
 
@@ -29,10 +42,42 @@ def configure(p) -> None:
     """Add ``evaluate``'s arguments to ``p``."""
     p.add_argument("mesh", metavar="MESH", help="reference mesh with faces: .ply .obj .off .npz")
     p.add_argument("map", metavar="MAP.npz", help="map written by 'pcgeom param'")
-    p.add_argument("--plot", metavar="ANGLES.png", help="also draw the angle-error histogram")
+    p.add_argument("--plot", metavar="DIR",
+                   help="write the figures into DIR (created if absent); a path ending in "
+                        ".png writes the angle histogram only")
+    p.add_argument("--no-baselines", action="store_true",
+                   help="do not run libigl's LSCM and harmonic disk map on MESH")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object on stdout instead of a summary")
     p.set_defaults(run=run)
+
+
+def _plot_target(text: str) -> tuple[Path, bool]:
+    """``--plot``'s path and whether it is a single PNG (else a directory), checked early."""
+    path = Path(text)
+    if path.is_dir():
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise InputError(f"{text}: plot directory is not writable")
+        return path, False
+    if path.suffix.lower() == ".png":
+        return check_writable(path, "png"), True
+    if path.suffix:
+        raise InputError(f"{text}: --plot takes a directory or a .png file, got "
+                         f"{path.suffix!r}")
+    if path.exists():
+        raise InputError(f"{text}: --plot takes a directory, got a file")
+    parent = path.parent
+    if not parent.is_dir():
+        raise InputError(f"{text}: plot directory's parent {os.fspath(parent)!r} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(f"{text}: plot directory's parent {os.fspath(parent)!r} is not "
+                         "writable")
+    return path, False
+
+
+def _angles_line(figures: dict) -> str:
+    return (f"median {figures['median_abs_angle_rad']:.4f}, 95th percentile "
+            f"{figures['p95_abs_angle_rad']:.4f}, max {figures['max_abs_angle_rad']:.4f} rad")
 
 
 def run(args) -> int:
@@ -40,30 +85,54 @@ def run(args) -> int:
     mesh = read_points(args.mesh)
     if mesh.faces is None:
         raise InputError(f"{args.mesh}: has no faces; evaluation needs a triangle mesh")
-    plot = check_writable(args.plot, "png") if args.plot else None
+    plot, single_png = _plot_target(args.plot) if args.plot else (None, False)
+    if single_png:
+        distinct_paths({"MESH": args.mesh, "MAP.npz": args.map}, {"plot": plot})
     result = ParamResult.load(args.map, n_points=len(mesh.points), against=args.mesh)
 
-    report = map_report(result.uv, result.domain, mesh.points, mesh.faces)
+    evaluation = evaluate_map(result.uv, mesh.points, mesh.faces, result.domain,
+                              result.history,
+                              baselines=() if args.no_baselines else EVALUATION_BASELINES)
+    report = evaluation.report
+    plots = None
     if plot is not None:
-        from ..apps.plot import plot_angle_histogram
-        from ..metrics import angle_distortion
+        from ..apps.evaluate import plot_angle_histograms, plot_evaluation
 
-        per_corner = angle_distortion(mesh.points, mesh.faces, result.uv).per_corner
-        plot_angle_histogram(per_corner, plot, title=f"{args.map} on {args.mesh}")
+        title = f"{Path(args.map).name} on {Path(args.mesh).name}"
+        if single_png:
+            plots = {"angles": plot_angle_histograms(evaluation, plot, title=title)}
+        else:
+            plots = plot_evaluation(evaluation, plot, title=title)
+        plots = {k: os.fspath(v) if v is not None else None for k, v in plots.items()}
     if args.json:
         print(json.dumps({"command": "evaluate", "mesh": args.mesh, "map": args.map,
-                          "plot": args.plot,
+                          "plot": args.plot, "plots": plots,
                           "domain": result.domain.spec if result.domain else None,
                           "preset": result.preset, "seed": result.seed,
                           "version": result.version, **report}))
-    else:
-        made = (f" (pcgeom {result.version}, preset {result.preset}, seed {result.seed})"
-                if result.config is not None else "")
-        print(f"{args.map} on {args.mesh}: {report['n_points']} points{made}")
-        if report["domain_hausdorff"] is not None:
-            print(f"Hausdorff distance of the map to the {result.domain.spec} domain: "
-                  f"{report['domain_hausdorff']:.4f}")
-        print_angles(report)
+        return EXIT_OK
+    made = (f" (pcgeom {result.version}, preset {result.preset}, seed {result.seed})"
+            if result.config is not None else "")
+    print(f"{args.map} on {args.mesh}: {report['n_points']} points{made}")
+    if report["domain_hausdorff"] is not None:
+        print(f"Hausdorff distance of the map to the {result.domain.spec} domain: "
+              f"{report['domain_hausdorff']:.4f}")
+    if report["landmark_hausdorff"] is not None:
+        print("Hausdorff distance of each landmark set to its targets: "
+              + ", ".join(f"{d:.4f}" for d in report["landmark_hausdorff"]))
+    print_angles(report)
+    print(f"  {_angles_line(report)}")
+    if report["baselines"]:
+        print("baselines on the same mesh:")
+    for name, base in report["baselines"].items():
+        if base["error"] is not None:
+            print(f"  {base['label']}: not run ({base['error']})")
+            continue
+        print(f"  {base['label']}: {base['seconds']:.2f} s, mean "
+              f"{base['mean_abs_angle_rad']:.4f}, {_angles_line(base)}, "
+              f"{base['flipped']} flipped ({base['flipped_percent']:.2f}%)")
+    if plots:
+        print("figures: " + ", ".join(v for v in plots.values() if v is not None))
     return EXIT_OK
 
 

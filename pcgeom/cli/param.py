@@ -26,6 +26,9 @@ from ._common import EXIT_OK, distinct_paths, print_angles, run_command, seed, s
 
 __all__ = ["configure", "run", "main"]
 
+NORMALS_CHOICES = ("auto", "ignore")
+NO_NORMALS_NOTE = "a cloud without normals may fold where two sheets of its surface touch"
+
 NAME = "param"
 INTERRUPTED_HINT = " (rerun with --resume to continue from the last finished stage)"
 HELP = "map a 3D point cloud onto a 2D domain"
@@ -42,6 +45,9 @@ examples:
       the paper's full schedule on a GPU; one JSON object on stdout for scripts
   pcgeom param scan.ply --domain disk --landmarks marks.json
       map onto the disk with landmark pairs (see README, "Landmark files")
+  pcgeom param scan.las --normals ignore --json
+      a LAS scan; ignore the file's normals (they are used when present: they keep the
+      two sheets apart where the surface doubles back)
   pcgeom param scan.xyz --resume
       continue an interrupted run from scan_uv.ckpt (same input, preset and seed)
 
@@ -55,7 +61,8 @@ after each stage and removed after success.
 def configure(p: argparse.ArgumentParser) -> None:
     """Add ``param``'s arguments to ``p``."""
     p.add_argument("input", nargs="?", metavar="INPUT",
-                   help="point cloud: .ply .obj .off .xyz .txt .csv .npz (omit with --example)")
+                   help="point cloud: .ply .obj .off .xyz .txt .csv .npz .las .laz "
+                        "(omit with --example)")
     p.add_argument("--example", metavar="NAME",
                    help=f"use a built-in surface instead of INPUT: {', '.join(EXAMPLES)}")
     p.add_argument("--domain", default="free", metavar="SPEC",
@@ -66,6 +73,10 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--landmarks", metavar="FILE.json",
                    help="landmark pairs: points of the input (indices or 3D points) and their "
                         "targets in the domain (points or polylines); needs a domain")
+    p.add_argument("--normals", choices=NORMALS_CHOICES, default="auto",
+                   help="auto: use the file's oriented normals (PLY nx ny nz, NPZ 'normals', "
+                        "six-column XYZ, LAS) when it has them; ignore: do not read them "
+                        "(default: auto)")
     p.add_argument("--preset", default="fast", metavar="NAME",
                    help=f"training preset: {', '.join(PRESETS)} (default: fast)")
     p.add_argument("--device", default="auto", metavar="DEV",
@@ -86,17 +97,26 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.set_defaults(run=run)
 
 
-def _load_input(args) -> tuple[np.ndarray, np.ndarray | None, str, Path]:
-    """Points, faces, a display name and the default output path, from INPUT or --example."""
+def _load_input(args) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, str, Path]:
+    """Points, faces, normals, a display name and the default output path, from INPUT or
+    --example."""
     if (args.input is None) == (args.example is None):
         raise InputError("give exactly one of INPUT or --example NAME")
     if args.example is not None:
         V, F = load_example(args.example)  # ValueError for an unknown name
         V = validate_points(V, name=args.example)
-        return V, F, args.example, Path(f"{args.example}_uv.npz")
-    cloud = read_points(args.input)
+        return V, F, None, args.example, Path(f"{args.example}_uv.npz")
+    cloud = read_points(args.input, normals=args.normals == "auto")
     src = Path(args.input)
-    return cloud.points, cloud.faces, args.input, src.with_name(f"{src.stem}_uv.npz")
+    return (cloud.points, cloud.faces, cloud.normals, args.input,
+            src.with_name(f"{src.stem}_uv.npz"))
+
+
+def _normals_used(history: list[dict], given: bool) -> str:
+    """``"input"``, ``"estimated"`` (the local-mesh map estimated them) or ``"none"``."""
+    if history and history[0].get("kind") == "localmesh":
+        return history[0]["normals"]
+    return "input" if given else "none"
 
 
 def _check_outputs(args, default_out: Path) -> dict[str, Path | None]:
@@ -117,7 +137,7 @@ def run(args) -> int:
     domain = get_domain(args.domain)
     config = get_preset(args.preset)
     device = resolve_device(args.device)
-    points, faces, name, default_out = _load_input(args)
+    points, faces, normals, name, default_out = _load_input(args)
     landmarks = []
     if args.landmarks is not None:
         if not domain.bounded:
@@ -129,7 +149,7 @@ def run(args) -> int:
 
     result = parametrize(points, domain, config=config, landmarks=landmarks, device=device,
                          seed=args.seed, checkpoint=outs["checkpoint"], resume=args.resume,
-                         progress=not args.quiet)
+                         progress=not args.quiet, normals=normals)
     result.faces = faces
     result.save(outs["out"])
     if outs["out_ply"] is not None:
@@ -160,6 +180,9 @@ def run(args) -> int:
         "seed": args.seed,
         "version": result.version,
         "seconds": float(result.seconds),
+        "method": "localmesh" if result.history and result.history[0].get("kind") == "localmesh"
+                  else "networks",
+        "normals": _normals_used(result.history, normals is not None),
         "loss": {k: float(final[k]) for k in LOSS_TERMS if k in final},
         "landmark_hausdorff": final.get("landmark_hausdorff"),
         "evaluation": evaluation,
@@ -172,7 +195,10 @@ def run(args) -> int:
     print(f"{name}: {summary['n_points']} points -> {', '.join(written)}")
     print(f"preset {args.preset}, domain {domain.spec}, device {summary['device']}, "
           f"seed {args.seed}: {summary['seconds']:.1f} s")
-    print("final loss: " + ", ".join(f"{k} {v:.4g}" for k, v in summary["loss"].items()))
+    note = "" if summary["normals"] == "input" else f" ({NO_NORMALS_NOTE})"
+    print(f"method {summary['method']}, normals {summary['normals']}{note}")
+    if summary["loss"]:
+        print("final loss: " + ", ".join(f"{k} {v:.4g}" for k, v in summary["loss"].items()))
     if summary["domain_hausdorff"] is not None:
         print(f"Hausdorff distance of the map to the {domain.spec} domain: "
               f"{summary['domain_hausdorff']:.4f}")

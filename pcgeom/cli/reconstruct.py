@@ -7,9 +7,11 @@ import os
 import sys
 
 from ..apps.boundary import detect_boundary
-from ..apps.reconstruct import SIZES, _gmsh, reconstruct_surface
+from ..apps.reconstruct import (SIZES, check_mesh_path, reconstruct_surface, require_gmsh,
+                                 write_mesh)
 from ..config import get_preset
-from ..io import check_writable, read_points, write_ply_atomic
+from ..errors import InputError
+from ..io import read_points
 from ..train import parametrize
 from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, int_at_least, load_free_map,
                       run_command, standalone_parser)
@@ -27,13 +29,14 @@ examples:
       maps the cloud first (free boundary, preset fast), then remeshes it
   pcgeom reconstruct scan.ply --map scan_uv.npz --target-vertices 5000 --out mesh.ply --json
       reuses a map written by 'pcgeom param scan.ply' (no --domain)
-  pcgeom reconstruct scan.ply --map scan_uv.npz --size adaptive --out mesh.ply
-      element size from the map's lambda (its file's lambda_inv)
+  pcgeom reconstruct scan.ply --map scan_uv.npz --size adaptive --out mesh.obj
+      element size from the map's lambda (its file's lambda_inv); written as OBJ
 
 The mesh is edge-manifold, counter-clockwise in the map (so consistently oriented), with one
 boundary loop per detected loop; every loop point of INPUT is a mesh vertex. The summary gives
 the distances from the mesh vertices to INPUT (vertex-to-point) over its bounding-box
 diagonal, the triangles' minimum angle and aspect ratio. Faces in INPUT are never used.
+The format follows the extension of --out: .ply (binary) or .obj (text, trimesh's exporter).
 Needs gmsh (pip install 'gmsh>=4.11').
 """
 
@@ -47,7 +50,8 @@ def configure(p) -> None:
                         "surface)")
     p.add_argument("--target-vertices", type=int_at_least(3), default=5000, metavar="N",
                    help="about how many vertices the mesh gets (default: 5000)")
-    p.add_argument("--out", required=True, metavar="MESH.ply", help="the mesh, as PLY")
+    p.add_argument("--out", required=True, metavar="MESH.ply|MESH.obj",
+                   help="the mesh, as PLY or OBJ (by extension)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object on stdout instead of a summary")
@@ -58,20 +62,24 @@ def run(args) -> int:
     """Run ``pcgeom reconstruct`` on parsed arguments; returns the exit status."""
     # Everything that can be wrong with the request is checked before any training.
     points = read_points(args.input).points
-    out = check_writable(args.out, "ply")
+    out = check_mesh_path(args.out)
     distinct_paths({"INPUT": args.input, "--map": args.map}, {"out": out})
-    _gmsh()  # a missing gmsh fails here, before any training
+    require_gmsh()  # a missing gmsh fails here, before any training
     if args.map is not None:
-        result = load_free_map(args, points, "boundary detection")
+        result = load_free_map(args, points, "surface reconstruction")
     else:
         result = parametrize(points, "free", config=get_preset("fast"),
                              progress=not args.quiet)
 
     loops = detect_boundary(result.uv)
+    if not loops.loops:
+        raise InputError(f"{args.input}: its map has no boundary loop of {loops.min_loop} points "
+                         f"or more ({len(loops.dropped)} smaller ones dropped); the "
+                         "reconstruction would be empty")
     V, F, report = reconstruct_surface(points, result.uv, loops, size=args.size,
                                        target_vertices=args.target_vertices,
                                        lambda_inv=result.lambda_inv)
-    write_ply_atomic(out, V, F)
+    write_mesh(out, V, F)
 
     summary = {
         "command": "reconstruct",

@@ -1,31 +1,42 @@
 """Read point clouds and meshes from files; write meshes and mapped points as PLY.
 
-Supported inputs: PLY (with or without faces), OBJ, OFF, XYZ/TXT/CSV tables and NPZ archives.
-Every problem with user input raises :class:`pcgeom.errors.InputError` with a one-line message
-that names the file and the problem, e.g. ``"input.ply: 3 points, need at least 10"``.
+Supported inputs: PLY (with or without faces), OBJ, OFF, XYZ/TXT/CSV tables, NPZ archives and
+LAS/LAZ (through laspy). Per-point normals are read when the file has them: PLY ``nx ny nz``
+vertex properties, NPZ key ``"normals"``, six-column tables (or a header row naming the normal
+columns) and LAS/LAZ extra dimensions; OBJ and OFF normals are not read. Every problem with user
+input raises :class:`pcgeom.errors.InputError` with a one-line message that names the file and
+the problem, e.g. ``"input.ply: 3 points, need at least 10"``.
 """
 
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
 import numpy as np
 
-from ..cloud import _one_line, validate_faces, validate_points
+from ..cloud import _one_line, validate_faces, validate_normals, validate_points
 from ..errors import InputError
 from .atomic import check_writable, write_atomic
 
 __all__ = ["PointCloud", "SUPPORTED_EXTENSIONS", "read_points", "write_ply_atomic"]
 
-SUPPORTED_EXTENSIONS = (".csv", ".npz", ".obj", ".off", ".ply", ".txt", ".xyz")
+SUPPORTED_EXTENSIONS = (".csv", ".las", ".laz", ".npz", ".obj", ".off", ".ply", ".txt", ".xyz")
 """File extensions :func:`read_points` understands (case-insensitive)."""
 
 _TABLE_EXTENSIONS = (".csv", ".txt", ".xyz")
 _NPZ_POINT_KEYS = ("points", "V", "vertices")
 _NPZ_FACE_KEYS = ("faces", "F")
+_NPZ_NORMAL_KEY = "normals"
+_LAS_EXTENSIONS = (".las", ".laz")
+# Names of normal components, compared after lower-casing and dropping everything but letters
+# and digits: nx/ny/nz (Open3D, CloudCompare, MeshLab), normal_x/... (PCL), NormalX/... (PDAL).
+_NORMAL_NAMES = (("nx", "ny", "nz"), ("normalx", "normaly", "normalz"))
+# A LAS extra dimension holding all three components, e.g. laspy's type "3f8".
+_NORMAL_VECTOR_NAMES = ("normal", "normals")
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,12 +52,58 @@ class PointCloud:
     """(M, 3) int64 vertex indices into ``points``, or None for a bare cloud."""
     source: str
     """Where the cloud came from (the path as given)."""
+    normals: np.ndarray | None = None
+    """(N, 3) float64 unit normals, one per row of ``points``, or None when the file has none.
+
+    Their sign is the file's (scanners usually point them towards the sensor); it tells the two
+    sides of a surface apart.
+    """
 
 
 # --------------------------------------------------------------------------- reading
 
 
-def _read_trimesh(path: Path, name: str) -> tuple[np.ndarray, np.ndarray | None]:
+def _normal_columns(names, name: str) -> tuple[str, str, str] | None:
+    """The three names among ``names`` that hold normal components, in x, y, z order, or None.
+
+    Raises InputError when only some components are present, or when two sets are.
+    """
+    key = {re.sub(r"[^0-9a-z]", "", str(n).lower()): n for n in names}
+    found = []
+    for triple in _NORMAL_NAMES:
+        present = [key[k] for k in triple if k in key]
+        if len(present) == 3:
+            found.append(tuple(present))
+        elif present:
+            missing = [k for k in triple if k not in key]
+            raise InputError(f"{name}: incomplete normals: has {', '.join(map(str, present))} "
+                             f"but no {', '.join(missing)}")
+    if len(found) > 1:
+        shown = " and ".join("/".join(map(str, t)) for t in found)
+        raise InputError(f"{name}: two sets of normals ({shown}); keep one")
+    return found[0] if found else None
+
+
+def _ply_normals(loaded, name: str) -> np.ndarray | None:
+    """The PLY file's own ``nx ny nz`` vertex properties, or None when it has none.
+
+    Read from the raw vertex records that trimesh keeps in ``metadata["_ply_raw"]`` (a structured
+    array for binary files, a dict of (N, 1) arrays for ASCII ones). Not
+    ``mesh.vertex_normals``: trimesh computes those from the faces when the file has none.
+    """
+    raw = getattr(loaded, "metadata", {}).get("_ply_raw", {}).get("vertex")
+    if raw is None:
+        return None
+    columns = _normal_columns(raw["properties"], name)
+    if columns is None:
+        return None
+    data = raw["data"]
+    return np.column_stack([np.asarray(data[c], dtype=np.float64).reshape(-1) for c in columns])
+
+
+def _read_trimesh(
+    path: Path, name: str, with_normals: bool
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
     """PLY and OFF through trimesh; ``process=False`` keeps vertex order and duplicates."""
     import trimesh
 
@@ -65,7 +122,9 @@ def _read_trimesh(path: Path, name: str) -> tuple[np.ndarray, np.ndarray | None]
         loaded = geometries[0]
     vertices = np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), dtype=np.float64)
     faces = getattr(loaded, "faces", None)  # a trimesh.PointCloud has no faces
-    return vertices, faces
+    ply = path.suffix.lower() == ".ply"
+    normals = _ply_normals(loaded, name) if ply and with_normals else None
+    return vertices, faces, normals
 
 
 def _read_obj(path: Path, name: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -103,8 +162,14 @@ def _read_obj(path: Path, name: str) -> tuple[np.ndarray, np.ndarray | None]:
     return V, F
 
 
-def _read_table(path: Path, name: str) -> np.ndarray:
-    """Numeric table: whitespace or comma separated, ``#`` comments, x y z first."""
+def _read_table(
+    path: Path, name: str, with_normals: bool
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Numeric table: whitespace or comma separated, ``#`` comments, x y z first.
+
+    Normals: with a header row, the columns it names ``nx ny nz`` (or ``normal_x`` ...), if
+    any; without one, columns 4-6 of a table of exactly six columns. Other columns are ignored.
+    """
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError:
@@ -112,8 +177,9 @@ def _read_table(path: Path, name: str) -> np.ndarray:
     # Allow one header row of column names (``x,y,z``) before the numbers.
     lines = [ln.split("#", 1)[0].replace(",", " ").split() for ln in text.splitlines()]
     rows = [ln for ln in lines if ln]
+    header = None
     if rows and not any(_is_number(tok) for tok in rows[0]):
-        rows = rows[1:]
+        header, rows = rows[0], rows[1:]
     if not rows:
         raise InputError(f"{name}: file holds no points")
     widths = {len(r) for r in rows}
@@ -130,7 +196,18 @@ def _read_table(path: Path, name: str) -> np.ndarray:
         raise InputError(f"{name}: cannot parse: {_one_line(exc)}") from None
     if table.shape[1] < 3:
         raise InputError(f"{name}: expected shape (N, 3) (x y z columns), got {table.shape}")
-    return table[:, :3]
+    if not with_normals:
+        return table[:, :3], None
+    if header is None:
+        # Six bare columns are x y z nx ny nz, the layout scanners and Open3D export.
+        return table[:, :3], (table[:, 3:6] if table.shape[1] == 6 else None)
+    columns = _normal_columns(header, name)
+    if columns is None:
+        return table[:, :3], None
+    if len(header) != table.shape[1]:
+        raise InputError(f"{name}: header names {len(header)} columns but rows have "
+                         f"{table.shape[1]}")
+    return table[:, :3], table[:, [header.index(c) for c in columns]]
 
 
 def _is_number(token: str) -> bool:
@@ -141,8 +218,11 @@ def _is_number(token: str) -> bool:
     return True
 
 
-def _read_npz(path: Path, name: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """NPZ: points under "points", "V" or "vertices" (else the only array); faces optional."""
+def _read_npz(
+    path: Path, name: str
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """NPZ: points under "points", "V" or "vertices" (else the only other array); faces and
+    normals optional."""
     try:
         with np.load(path, allow_pickle=False) as archive:
             arrays = {key: archive[key] for key in archive.files}
@@ -150,7 +230,7 @@ def _read_npz(path: Path, name: str) -> tuple[np.ndarray, np.ndarray | None]:
         raise InputError(f"{name}: cannot parse: {_one_line(exc)}") from None
     point_key = next((k for k in _NPZ_POINT_KEYS if k in arrays), None)
     if point_key is None:
-        candidates = [k for k in arrays if k not in _NPZ_FACE_KEYS]
+        candidates = [k for k in arrays if k not in (*_NPZ_FACE_KEYS, _NPZ_NORMAL_KEY)]
         if len(candidates) != 1:
             found = ", ".join(sorted(arrays)) or "none"
             raise InputError(
@@ -160,34 +240,93 @@ def _read_npz(path: Path, name: str) -> tuple[np.ndarray, np.ndarray | None]:
         point_key = candidates[0]
     face_key = next((k for k in _NPZ_FACE_KEYS if k in arrays), None)
     faces = arrays[face_key] if face_key is not None else None
-    return arrays[point_key], faces
+    return arrays[point_key], faces, arrays.get(_NPZ_NORMAL_KEY)
 
 
-def read_points(path, min_points: int = 10) -> PointCloud:
-    """Read a point cloud (and its faces, when the file has them) and validate it.
+def _read_las(
+    path: Path, name: str, with_normals: bool
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """LAS/LAZ through laspy: scaled x y z, and normals from extra dimensions.
+
+    Normals are three extra dimensions named like ``NormalX``/``normal_x``/``nx`` (any case),
+    or one three-component extra dimension named ``normal`` or ``normals``.
+    """
+    try:
+        import laspy
+    except ImportError:
+        raise ImportError(
+            "reading .las/.laz files needs laspy: pip install 'laspy[lazrs]'"
+        ) from None
+    if path.suffix.lower() == ".laz" and not laspy.LazBackend.detect_available():
+        raise ImportError("reading .laz files needs a LAZ backend: pip install 'laspy[lazrs]'")
+    try:
+        las = laspy.read(path)
+    except Exception as exc:  # laspy.LaspyException, struct errors on truncated files, ...
+        raise InputError(f"{name}: cannot parse: {_one_line(exc)}") from None
+    # las.x is the stored integer X times the header's scale plus its offset.
+    points = np.column_stack([np.asarray(las.x, dtype=np.float64),
+                              np.asarray(las.y, dtype=np.float64),
+                              np.asarray(las.z, dtype=np.float64)])  # (N, 3)
+    if not with_normals:
+        return points, None
+    extra = list(las.point_format.extra_dimension_names)
+    columns = _normal_columns(extra, name)
+    if columns is not None:
+        normals = np.column_stack([np.asarray(las[c], dtype=np.float64) for c in columns])
+        return points, normals
+    vector = [d for d in extra if d.lower() in _NORMAL_VECTOR_NAMES]
+    if len(vector) > 1:
+        raise InputError(f"{name}: two sets of normals ({' and '.join(vector)}); keep one")
+    if vector:
+        return points, np.asarray(las[vector[0]], dtype=np.float64)
+    return points, None
+
+
+def read_points(path, min_points: int = 10, *, normals: bool = True) -> PointCloud:
+    """Read a point cloud (and its faces and normals, when the file has them) and validate it.
 
     Parameters
     ----------
     path : str or os.PathLike
-        A ``.ply`` (with or without faces), ``.obj``, ``.off``, ``.xyz``/``.txt``/``.csv``
-        (numeric table, whitespace or comma separated, first three columns x y z, extra
-        columns ignored, ``#`` comments and one header row of names allowed) or ``.npz``
-        (points under key ``"points"``, ``"V"`` or ``"vertices"``, else its only array; faces
-        optionally under ``"faces"`` or ``"F"``).
+        One of these formats (by extension, case-insensitive):
+
+        - ``.ply``, with or without faces; normals from the vertex properties ``nx ny nz``
+          (or ``normal_x normal_y normal_z``), never computed from the faces.
+        - ``.obj``, ``.off``: points and faces; normals are not read.
+        - ``.xyz``/``.txt``/``.csv``: numeric table, whitespace or comma separated, first three
+          columns x y z, ``#`` comments and one header row of names allowed. Normals: with a
+          header row, the columns it names ``nx ny nz`` (or ``normal_x`` ...), if it names them;
+          without one, columns 4-6 of a table of exactly six columns (x y z nx ny nz). Other
+          columns are ignored (so a headerless six-column x y z r g b table must get a header,
+          or be read with ``normals=False``).
+        - ``.npz``: points under key ``"points"``, ``"V"`` or ``"vertices"``, else its only
+          array besides faces and normals; faces optionally under ``"faces"`` or ``"F"``;
+          normals optionally under ``"normals"``.
+        - ``.las``/``.laz`` (laspy; LAZ through lazrs): scaled x y z coordinates; normals from
+          three extra dimensions named like ``NormalX``/``normal_x``/``nx``, or from one
+          three-component extra dimension ``normal``/``normals``.
     min_points : int
         Passed to :func:`validate_points`.
+    normals : bool
+        Read and validate the file's normals (default). False skips them and every check on
+        them, so that a file whose extra columns are not normals still reads;
+        ``PointCloud.normals`` is then None.
 
     Returns
     -------
     PointCloud
         ``points`` (N, 3) float64 in file order (duplicates kept), ``faces`` (M, 3) int64 or
-        None, ``source`` the path as given.
+        None, ``source`` the path as given, ``normals`` (N, 3) float64 of unit length or None.
 
     Raises
     ------
     InputError
         Missing file, empty file (0 bytes or no points), unknown extension, unparsable content,
-        wrong shape, faces out of range, or any check of :func:`validate_points`.
+        wrong shape, faces out of range, any check of :func:`validate_points`, or normals that
+        fail :func:`pcgeom.cloud.validate_normals` (wrong count, NaN or inf, zero length),
+        are incomplete (``nx ny`` without ``nz``) or come in two sets.
+    ImportError
+        A ``.las``/``.laz`` file without laspy (or ``.laz`` without lazrs) installed.
     """
     name = os.fspath(path)
     path = Path(path)
@@ -204,15 +343,17 @@ def read_points(path, min_points: int = 10) -> PointCloud:
     if path.stat().st_size == 0:
         raise InputError(f"{name}: file is empty (0 bytes)")
 
-    faces = None
+    faces = file_normals = None
     if ext in (".ply", ".off"):
-        points, faces = _read_trimesh(path, name)
+        points, faces, file_normals = _read_trimesh(path, name, normals)
     elif ext == ".obj":
         points, faces = _read_obj(path, name)
     elif ext == ".npz":
-        points, faces = _read_npz(path, name)
+        points, faces, file_normals = _read_npz(path, name)
+    elif ext in _LAS_EXTENSIONS:
+        points, file_normals = _read_las(path, name, normals)
     else:
-        points = _read_table(path, name)
+        points, file_normals = _read_table(path, name, normals)
 
     points = np.asarray(points)
     if points.size == 0:
@@ -221,14 +362,18 @@ def read_points(path, min_points: int = 10) -> PointCloud:
         raise InputError(f"{name}: expected shape (N, 3), got {points.shape}")
     points = validate_points(points, name=name, min_points=min_points)
     faces = validate_faces(faces, len(points), name)
-    return PointCloud(points=points, faces=faces, source=name)
+    file_normals = validate_normals(file_normals if normals else None, len(points), name)
+    return PointCloud(points=points, faces=faces, source=name, normals=file_normals)
 
 
 # --------------------------------------------------------------------------- writing
 
 
-def _write_ply(f: BinaryIO, V: np.ndarray, F: np.ndarray | None) -> None:
-    """Binary little-endian PLY with float64 coordinates (trimesh's export is float32)."""
+def _write_ply(
+    f: BinaryIO, V: np.ndarray, F: np.ndarray | None, N: np.ndarray | None = None
+) -> None:
+    """Binary little-endian PLY with float64 coordinates (trimesh's export is float32), and
+    float64 ``nx ny nz`` when ``N`` is given."""
     header = [
         "ply",
         "format binary_little_endian 1.0",
@@ -238,11 +383,14 @@ def _write_ply(f: BinaryIO, V: np.ndarray, F: np.ndarray | None) -> None:
         "property double y",
         "property double z",
     ]
+    if N is not None:
+        header += ["property double nx", "property double ny", "property double nz"]
     if F is not None:
         header += [f"element face {len(F)}", "property list uchar int vertex_indices"]
     header.append("end_header\n")
     f.write("\n".join(header).encode("ascii"))
-    f.write(np.ascontiguousarray(V, dtype="<f8").tobytes())
+    rows = V if N is None else np.hstack([V, N])  # x y z [nx ny nz]: one record per vertex
+    f.write(np.ascontiguousarray(rows, dtype="<f8").tobytes())
     if F is not None:
         rows = np.empty(len(F), dtype=[("n", "u1"), ("v", "<i4", (3,))])
         rows["n"] = 3
@@ -250,8 +398,8 @@ def _write_ply(f: BinaryIO, V: np.ndarray, F: np.ndarray | None) -> None:
         f.write(rows.tobytes())
 
 
-def write_ply_atomic(path, vertices, faces=None) -> None:
-    """Write vertices (and optional triangles) as a binary PLY, atomically.
+def write_ply_atomic(path, vertices, faces=None, normals=None) -> None:
+    """Write vertices (and optional triangles and normals) as a binary PLY, atomically.
 
     Parameters
     ----------
@@ -261,12 +409,16 @@ def write_ply_atomic(path, vertices, faces=None) -> None:
         Finite coordinates, stored as float64 (exact round trip through :func:`read_points`).
     faces : (M, 3) array_like of int, optional
         Vertex indices in ``[0, N)``.
+    normals : (N, 3) array_like, optional
+        One normal per vertex, written as float64 ``nx ny nz`` after scaling to unit length
+        (:func:`pcgeom.cloud.validate_normals`); :func:`read_points` gives them back.
 
     Raises
     ------
     InputError
-        Bad path (see :func:`check_writable`), or faces of the wrong shape, not integers, or
-        out of range (:func:`pcgeom.cloud.validate_faces`).
+        Bad path (see :func:`check_writable`), faces of the wrong shape, not integers, or
+        out of range (:func:`pcgeom.cloud.validate_faces`), or normals of the wrong shape or
+        count, not finite, or of zero length (:func:`pcgeom.cloud.validate_normals`).
     ValueError
         Vertices of the wrong shape or not finite.
     """
@@ -277,4 +429,5 @@ def write_ply_atomic(path, vertices, faces=None) -> None:
     if not np.isfinite(V).all():
         raise ValueError("vertices: contain NaN or inf")
     F = validate_faces(faces, len(V))
-    write_atomic(path, lambda f: _write_ply(f, V, F))
+    N = validate_normals(normals, len(V))
+    write_atomic(path, lambda f: _write_ply(f, V, F, N))

@@ -3,7 +3,7 @@
 A checkpoint holds tensors, numbers, strings, lists and dicts only, and is loaded with
 ``torch.load(weights_only=True)``: a crafted ``.ckpt`` cannot execute anything, it fails to
 load. It also records the run's identity (the input's fingerprint, the config, the seed, the
-domain and the landmarks), and a run resumes only from a checkpoint of the same identity.
+domain, the normals and the landmarks), and a run resumes only from a checkpoint of the same identity.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def save_checkpoint(path, state: dict) -> None:
 
 def load_checkpoint(path, identity: dict) -> dict:
     """The state saved at ``path``, checked to hold the same ``identity`` (plain data: the
-    input's fingerprint, config, seed, domain, landmarks) as the run that resumes it.
+    input's fingerprint, config, seed, domain, normals, landmarks) as the run that resumes it.
 
     Loaded onto the CPU: the RNG states must be CPU ByteTensors (``set_state`` rejects CUDA
     ones); ``load_state_dict`` then copies weights and optimizer state to the run's device.
@@ -46,6 +46,6 @@ def load_checkpoint(path, identity: dict) -> dict:
     if not isinstance(state, dict) or not set(identity) <= set(state):
         raise InputError(f"{path}: not a pcgeom checkpoint; delete it to start over")
     if any(state[key] != value for key, value in identity.items()):
-        raise InputError(f"{path}: checkpoint is from a different input, domain, landmarks, "
-                         "config or seed; delete it to start over")
+        raise InputError(f"{path}: checkpoint is from a different input, normals, domain, "
+                         "landmarks, config or seed; delete it to start over")
     return state

@@ -16,8 +16,8 @@ _READ_EVERY = 50
 
 
 def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Tensor],
-           objective: Objective, config: RefineConfig, *, progress: bool
-           ) -> tuple[torch.Tensor, torch.Tensor, dict]:
+           objective: Objective, config: RefineConfig, *, normals: np.ndarray | None = None,
+           progress: bool) -> tuple[torch.Tensor, torch.Tensor, dict]:
     """Optimize each point's image and ``log l_i`` on local LEG pairs, from ``start``.
 
     Parameters
@@ -48,8 +48,13 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
     dist, nb = tree.query(Xn, k + 1)
     spacing = float(dist[:, 1].mean())
     sigma = config.sigma_spacing * spacing
-    i = torch.arange(n, device=dev).repeat_interleave(k)
-    j = torch.as_tensor(nb[:, 1:].reshape(-1), device=dev)
+    i = np.arange(n).repeat(k)
+    j = nb[:, 1:].reshape(-1)
+    if normals is not None:
+        same = np.einsum("pd,pd->p", normals[i], normals[j]) > 0
+        i, j = i[same], j[same]
+    i = torch.as_tensor(i, device=dev)
+    j = torch.as_tensor(j, device=dev)
     with torch.no_grad():
         mapped_spacing = float((U0[i] - U0[j]).norm(dim=-1).median())
     U = U0.detach().clone().requires_grad_(True)

@@ -21,7 +21,7 @@ import numpy as np
 import torch
 
 from .._version import __version__
-from ..cloud import deduplicate, fingerprint, normalize, validate_points
+from ..cloud import deduplicate, fingerprint, normalize, validate_normals, validate_points
 from ..config import ParamConfig, get_preset
 from ..domains import Domain, get_domain
 from ..errors import InputError
@@ -32,6 +32,7 @@ from .device import resolve_device
 from .networks import build_networks, run_network_stage
 from .objective import Objective
 from .plan import stage_plan
+from .localmesh import free_localmesh
 from .refine import refine
 
 __all__ = ["parametrize"]
@@ -68,6 +69,7 @@ def parametrize(
     resume: bool = False,
     progress: bool = True,
     on_stage: Callable[[dict, np.ndarray], None] | None = None,
+    normals=None,
 ) -> ParamResult:
     """Parametrize a point cloud onto ``domain``.
 
@@ -100,6 +102,13 @@ def parametrize(
         Called after every stage (and the refinement) with the stage's history record and
         the current map, (N, 2) float64 in the input's row order: for per-stage curves of
         quality measures the optimizer does not know about.
+    normals : (N, 3) array_like, optional
+        Oriented normals, one per row of ``points`` (checked with
+        :func:`pcgeom.cloud.validate_normals`). They keep the two sheets of a surface that
+        doubles back apart: the local-mesh map builds its fans from same-sheet neighbours,
+        and the refinement drops pairs whose normals disagree. Without them, the local-mesh
+        map estimates and orients normals (:mod:`pcgeom.normals`), and the map may fold where
+        sheets touch.
 
     Returns
     -------
@@ -112,11 +121,28 @@ def parametrize(
     dev = resolve_device(device)
     dtype = _DTYPES[config.dtype]
     P = validate_points(points)
+    normals = validate_normals(normals, len(P))
     unique, inverse = deduplicate(P)
+    if normals is not None:
+        # A duplicated point keeps the normal of its first row.
+        first = np.full(len(unique), len(P))
+        np.minimum.at(first, inverse, np.arange(len(P)))
+        normals = normals[first]
     Xn, center, scale = normalize(unique)
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
     if lm_points and not domain.bounded:
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
+    if not domain.bounded and config.free_map == "localmesh":
+        uv, lam_inv, record = free_localmesh(Xn, normals, config, device=dev, dtype=dtype,
+                                             seed=seed, progress=progress)
+        if on_stage is not None:
+            on_stage(record, uv[inverse])
+        return ParamResult(
+            uv=uv[inverse], lambda_inv=lam_inv[inverse], center=center, scale=float(scale),
+            config=config, domain=domain, seed=seed, history=[record],
+            seconds=time.perf_counter() - t_start, fingerprint=fingerprint(P),
+            version=__version__,
+        )
     W = None
     if domain.bounded:
         W = torch.tensor(domain.sample(config.domain_samples, seed=seed), device=dev, dtype=dtype)
@@ -131,6 +157,7 @@ def parametrize(
     # What a checkpoint must share with this run to be resumed.
     identity = {"fingerprint": fingerprint(P), "config": config.to_dict(), "seed": seed,
                 "domain": domain.to_dict(),
+                "normals": None if normals is None else fingerprint(normals),
                 "landmarks": [[fingerprint(p), fingerprint(q)] for p, q in landmarks]}
     history: list[dict] = []
     start_stage = 0
@@ -169,7 +196,7 @@ def parametrize(
         lam_inv = nets.lambda_net(data.X)
     if config.refine.steps > 0:
         U, lam_inv, record = refine(data, Xn, (U, lam_inv), objective, config.refine,
-                                    progress=progress)
+                                    normals=normals, progress=progress)
         history.append(record)
         if on_stage is not None:
             on_stage(record, U.cpu().double().numpy()[inverse])

@@ -1,0 +1,105 @@
+"""Normals of a cloud that has none: PCA estimates, consistently oriented by propagation.
+
+Scanners write oriented normals, and where a surface doubles back (closed eyelids and lips,
+nostrils) they are what tells its two sheets apart: the other sheet can lie closer than the
+point spacing, but its normals point the other way (DESIGN.md, "What limits real scans").
+A bare cloud has to estimate them:
+
+1. **PCA** (Hoppe et al., 1992): the normal at ``x_i`` is the direction of least variance of its
+   ``k`` nearest neighbours. It has no sign.
+2. **Orientation by propagation** (Hoppe et al.; the same idea as Open3D's
+   ``orient_normals_consistent_tangent_plane``): on the k-nearest-neighbour graph, take a
+   minimum spanning tree and flip each normal to agree with its parent's, from a seed.
+
+   The edge cost is ``(1 - |n_i . n_j|) + |n_i . e_ij| + |n_j . e_ij|`` with ``e_ij`` the unit
+   direction from ``x_i`` to ``x_j``. The first term is Hoppe's (prefer parallel normals). The
+   last two, added here, price an edge that leaves the tangent planes: a neighbour on the
+   other sheet of a fold sits along the normal, not beside the point. On face_human_choi they
+   raise the share of correctly oriented normals from 93.2% to 96.7%. The propagation still
+   crosses where the sheets touch over a long stretch. This is why a cloud without normals
+   may fold there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["estimate_normals", "orient_normals"]
+
+
+def estimate_normals(X: np.ndarray, neighbours: int = 16) -> np.ndarray:
+    """Unoriented PCA normals: the least-variance direction of each point's neighbourhood.
+
+    Parameters
+    ----------
+    X : (N, 3) float64
+        Distinct points.
+    neighbours : int
+        Neighbours per point, the point itself excluded.
+
+    Returns
+    -------
+    (N, 3) float64
+        Unit normals, sign arbitrary.
+    """
+    from scipy.spatial import cKDTree
+
+    k = min(neighbours, len(X) - 1)
+    _, nb = cKDTree(X).query(X, k + 1)
+    P = X[nb] - X[nb].mean(axis=1, keepdims=True)  # (N, k + 1, 3)
+    C = np.einsum("nki,nkj->nij", P, P)
+    _, vectors = np.linalg.eigh(C)  # eigenvalues ascending
+    return np.ascontiguousarray(vectors[:, :, 0])
+
+
+def orient_normals(X: np.ndarray, normals: np.ndarray, neighbours: int = 16) -> np.ndarray:
+    """Flip normals to one consistent side by propagation over a minimum spanning tree.
+
+    Each connected part of the neighbour graph is oriented on its own, from its point of
+    largest z, whose normal is made to point up (+z): for a scan seen from above, normals
+    towards the scanner.
+
+    Parameters
+    ----------
+    X : (N, 3) float64
+    normals : (N, 3) float64
+        Unit normals of any sign.
+    neighbours : int
+        Neighbours per point in the graph.
+
+    Returns
+    -------
+    (N, 3) float64
+        The same lines, with consistent signs.
+    """
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import breadth_first_order, connected_components
+    from scipy.sparse.csgraph import minimum_spanning_tree
+    from scipy.spatial import cKDTree
+
+    n = len(X)
+    N = np.array(normals, dtype=np.float64)
+    k = min(neighbours, n - 1)
+    _, nb = cKDTree(X).query(X, k + 1)
+    i = np.repeat(np.arange(n), k)
+    j = nb[:, 1:].reshape(-1)
+    e = X[j] - X[i]
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    cost = (1.0 - np.abs(np.einsum("pd,pd->p", N[i], N[j]))
+            + np.abs(np.einsum("pd,pd->p", N[i], e)) + np.abs(np.einsum("pd,pd->p", N[j], e)))
+    # Zero-cost edges would vanish from the sparse graph: shift every cost up a little.
+    G = sp.coo_matrix((cost + 1e-9, (i, j)), shape=(n, n)).tocsr()
+    tree = minimum_spanning_tree(G.maximum(G.T))
+    tree = tree + tree.T
+    n_parts, label = connected_components(tree, directed=False)
+    for part in range(n_parts):
+        members = np.flatnonzero(label == part)
+        seed = members[np.argmax(X[members, 2])]
+        if N[seed, 2] < 0:
+            N[seed] = -N[seed]
+        order, parent = breadth_first_order(tree, seed, directed=False)
+        # In BFS order each parent is final before its children are visited.
+        for v in order[1:]:
+            if N[v] @ N[parent[v]] < 0:
+                N[v] = -N[v]
+    return N

@@ -1,0 +1,90 @@
+"""The ``"localmesh"`` free map as a run: normals, the local mesh, LSCM, optional refinement."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+import torch
+
+from ..config import ParamConfig
+from ..errors import InputError
+from ..localmesh import conformal_factor, local_mesh, lscm_free
+from ..normals import estimate_normals, orient_normals
+from .data import TrainData
+from .objective import Objective
+from .refine import refine
+
+__all__ = ["free_localmesh", "CLOSED_SURFACE"]
+
+CLOSED_SURFACE = (
+    "the cloud looks like a closed surface (its local mesh has no boundary), and a closed "
+    "surface has no planar map without a cut: cut it open first (remove a cap or a strip of "
+    "points)"
+)
+"""The message of the :class:`InputError` for a closed surface."""
+
+
+def free_localmesh(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
+                   device: torch.device, dtype: torch.dtype, seed: int, progress: bool
+                   ) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The free-boundary map of the normalized cloud by :mod:`pcgeom.localmesh`.
+
+    Parameters
+    ----------
+    Xn : (N, 3) float64
+        Normalized distinct points.
+    normals : (N, 3) float64 or None
+        Their oriented unit normals; None: estimated (PCA) and oriented by propagation.
+    config : ParamConfig
+        Uses ``local_mesh`` and, when ``local_mesh.refine_steps > 0``, ``refine`` and
+        ``weights``.
+
+    Returns
+    -------
+    uv : (N, 2) float64
+    lam_inv : (N,) float64
+    record : dict
+        The history record: ``stage`` and ``kind`` ``"localmesh"``, ``normals`` (``"input"``
+        or ``"estimated"``), ``faces``, ``boundary_edges``, ``unmeshed`` (points outside the
+        mesh's main part, interpolated), ``seconds``.
+
+    Raises
+    ------
+    InputError
+        The cloud samples a closed surface (:data:`CLOSED_SURFACE`).
+    """
+    t0 = time.perf_counter()
+    settings = config.local_mesh
+    source = "input"
+    if normals is None:
+        source = "estimated"
+        normals = orient_normals(Xn, estimate_normals(Xn, settings.normal_neighbours),
+                                 settings.normal_neighbours)
+    mesh = local_mesh(Xn, normals, settings.neighbours, progress=progress)
+    if mesh.looks_closed:
+        raise InputError(CLOSED_SURFACE)
+    uv = lscm_free(Xn, mesh)
+    lam_inv = conformal_factor(Xn, uv)
+    record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
+              "neighbours": settings.neighbours, "faces": mesh.n_faces,
+              "boundary_edges": mesh.boundary_edges, "unmeshed": int((~mesh.main).sum())}
+    if settings.refine_steps > 0:
+        gen = torch.Generator(device="cpu")
+        gen.manual_seed(seed)
+        torch.manual_seed(seed)
+        data = TrainData(torch.tensor(Xn, device=device, dtype=dtype), None, [], [], gen)
+        U, lam, refined = refine(
+            data, Xn,
+            (torch.tensor(uv, device=device, dtype=dtype),
+             torch.tensor(lam_inv, device=device, dtype=dtype)),
+            Objective(config.weights, []),
+            dataclasses.replace(config.refine, steps=settings.refine_steps),
+            normals=normals, progress=progress,
+        )
+        uv, lam_inv = U.cpu().double().numpy(), lam.cpu().double().numpy()
+        record["refine_steps"] = settings.refine_steps
+        record.update({k: v for k, v in refined.items() if k.startswith("loss")})
+    record["seconds"] = time.perf_counter() - t0
+    return uv, lam_inv, record

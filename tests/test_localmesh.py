@@ -1,0 +1,181 @@
+"""Normals (estimate, orient) and the local-mesh map: analytic truths and a folded strip."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pcgeom import InputError, parametrize
+from pcgeom.config import LocalMeshConfig, get_preset
+from pcgeom.localmesh import conformal_factor, local_mesh, lscm_free
+from pcgeom.metrics import angle_distortion
+from pcgeom.normals import estimate_normals, orient_normals
+from pcgeom.train.localmesh import CLOSED_SURFACE
+
+
+def _grid_faces(ns: int, ny: int) -> np.ndarray:
+    """Triangles of an ``ns x ny`` grid whose point ``(a, b)`` is row ``a * ny + b``."""
+    a, b = np.meshgrid(np.arange(ns - 1), np.arange(ny - 1), indexing="ij")
+    p = (a * ny + b).ravel()
+    return np.concatenate([np.stack([p, p + ny, p + 1], 1),
+                           np.stack([p + 1, p + ny, p + ny + 1], 1)])
+
+
+def _jittered_grid(ns: int, ny: int, h: float, seed: int = 0) -> np.ndarray:
+    """(ns * ny, 2) grid of spacing ``h`` with a small jitter (no cocircular ties)."""
+    s, y = np.meshgrid(np.arange(ns) * h, np.arange(ny) * h, indexing="ij")
+    st = np.column_stack([s.ravel(), y.ravel()])
+    return st + np.random.default_rng(seed).uniform(-0.1 * h, 0.1 * h, st.shape)
+
+
+def folded_strip(h: float = 1.0, length: float = 24.0, width: float = 12.0,
+                 gap: float = 0.5, radius: float = 2.0):
+    """A strip that doubles back: two flat sheets ``gap * h`` apart joined by a round bulb.
+
+    The centre line in the xz-plane runs along z = 0 from x = 0 to ``length``, around most of
+    a circle of radius ``radius * h`` through both sheet ends, and back along z = gap * h; the
+    strip extrudes it along y. It is developable: its arc-length coordinates ``(s, y)`` are an
+    isometric map, so a perfect map has zero angle distortion on its grid triangles.
+
+    Returns
+    -------
+    X : (N, 3), N : (N, 3) oriented unit normals, F : (M, 3) grid triangles, st : (N, 2)
+    """
+    g, R, L = gap * h, radius * h, length * h
+    cx = L + np.sqrt(R * R - (g / 2) ** 2)
+    t0 = np.arctan2(0.0 - g / 2, L - cx)  # angle of the bottom sheet's end on the circle
+    t1 = np.arctan2(g - g / 2, L - cx)  # angle of the top sheet's end
+    sweep = (t1 - t0) % (2 * np.pi)  # counter-clockwise: under, around and over the bulb
+    arc = R * sweep
+    total = 2 * L + arc
+    ns, ny = int(total / h) + 1, int(width) + 1
+    st = _jittered_grid(ns, ny, h)
+    s = np.clip(st[:, 0], 0.0, total)
+    X = np.zeros((len(st), 3))
+    T = np.zeros((len(st), 3))  # unit tangent of the centre line
+    bottom, top = s <= L, s >= L + arc
+    bend = ~bottom & ~top
+    X[bottom, 0], T[bottom, 0] = s[bottom], 1.0
+    angle = t0 + (s[bend] - L) / R
+    X[bend, 0], X[bend, 2] = cx + R * np.cos(angle), g / 2 + R * np.sin(angle)
+    T[bend, 0], T[bend, 2] = -np.sin(angle), np.cos(angle)
+    X[top, 0], X[top, 2], T[top, 0] = L - (s[top] - L - arc), g, -1.0
+    X[:, 1] = st[:, 1]
+    N = np.column_stack([-T[:, 2], np.zeros(len(st)), T[:, 0]])  # tangent turned by 90 deg
+    return X, N, _grid_faces(ns, ny), np.column_stack([s, st[:, 1]])
+
+
+def test_folded_strip_sheets_are_closer_than_the_spacing():
+    """The fixture does what the test below needs: the other sheet inside the neighbourhood."""
+    from scipy.spatial import cKDTree
+
+    X, N, F, st = folded_strip()
+    _, nb = cKDTree(X).query(X, 9)
+    cross = (np.einsum("nkd,nd->nk", N[nb[:, 1:]], N) < 0).any(axis=1)
+    assert cross.mean() > 0.5  # most points have a neighbour on the other sheet
+    assert angle_distortion(X, F, st).flipped == 0  # (s, y) unfolds it
+
+
+def test_normals_separate_two_sheets_half_a_spacing_apart():
+    """The issue's test: with its normals the folded strip maps with no flipped triangle."""
+    X, N, F, _ = folded_strip()
+    result = parametrize(X, normals=N, config=get_preset("fast"), progress=False)
+    report = angle_distortion(X, F, result.uv)
+    assert report.flipped == 0
+    assert report.mean_abs < 0.06  # measured 0.039 (the bulb joins the sheets at a kink)
+    assert result.history[0]["normals"] == "input"
+
+
+def test_positions_alone_cannot_separate_the_sheets():
+    """Without normals, estimated ones are orientation-blind across a 0.5-spacing gap: the
+    same strip folds. (This is the failure the normals exist to prevent; if it ever passes
+    without them, the test above proves less.)"""
+    X, _, F, _ = folded_strip()
+    result = parametrize(X, config=get_preset("fast"), progress=False)
+    assert angle_distortion(X, F, result.uv).flipped > 0
+
+
+def test_estimated_normals_match_a_sphere_and_orient_consistently():
+    rng = np.random.default_rng(1)
+    d = rng.normal(size=(3000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    cap = d[d[:, 2] > 0.3]  # an open cap of the unit sphere
+    N = orient_normals(cap, estimate_normals(cap))
+    cos = np.einsum("nd,nd->n", N, cap)  # true normal = position
+    assert np.abs(cos).min() > 0.99
+    assert (cos > 0).all()  # one side everywhere: outward (the top point's normal is +z)
+
+
+def test_local_mesh_of_a_plane_is_a_similarity():
+    st = _jittered_grid(20, 15, 1.0, seed=2)
+    X = np.column_stack([st, np.zeros(len(st))]) @ np.linalg.qr(
+        np.random.default_rng(3).normal(size=(3, 3)))[0].T  # a plane, turned in space
+    n = np.cross(X[1] - X[0], X[15] - X[0])
+    N = np.tile(n / np.linalg.norm(n), (len(X), 1))
+    mesh = local_mesh(X, N, 24)
+    assert mesh.main.all() and not mesh.looks_closed
+    U = lscm_free(X, mesh)
+    report = angle_distortion(X, _grid_faces(20, 15), U)
+    assert report.mean_abs < 1e-8 and report.flipped == 0
+    # A similarity: all distances scale by one factor, which conformal_factor recovers.
+    ratio = np.linalg.norm(X[5] - X[200]) / np.linalg.norm(U[5] - U[200])
+    np.testing.assert_allclose(conformal_factor(X, U), 0.5 * ratio, rtol=1e-8)
+    # Principal pose: centred, axes uncorrelated, the longer one along u.
+    np.testing.assert_allclose(U.mean(axis=0), 0.0, atol=1e-12)
+    cov = np.cov(U.T)
+    assert abs(cov[0, 1]) < 1e-10 * cov[0, 0] and cov[0, 0] > cov[1, 1]
+
+
+def test_local_mesh_is_edge_manifold_and_consistently_oriented():
+    X, N, _, _ = folded_strip()
+    mesh = local_mesh(X, N, 24)
+    F = mesh.faces
+    directed = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    assert len(np.unique(directed, axis=0)) == len(directed)  # no directed edge twice
+    _, count = np.unique(np.sort(directed, axis=1), axis=0, return_counts=True)
+    assert count.max() == 2  # no edge in three triangles
+    # Each triangle faces the side its vertices' normals point to.
+    cross = np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
+    assert (np.einsum("md,md->m", cross, N[F].sum(axis=1)) > 0).all()
+
+
+def test_closed_surface_is_refused_with_one_line():
+    rng = np.random.default_rng(4)
+    d = rng.normal(size=(2000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    with pytest.raises(InputError) as info:
+        parametrize(d, normals=d, progress=False)
+    assert str(info.value) == CLOSED_SURFACE and "\n" not in CLOSED_SURFACE
+
+
+@pytest.mark.parametrize("bad, message", [
+    (np.ones((5, 3)), "normals: 5 normals for 300 points"),
+    (np.ones((300, 2)), r"normals: expected normals of shape \(N, 3\), got \(300, 2\)"),
+    ("nan", "normals: normal of row 7 contains NaN or inf"),
+    ("zero", r"normals: normal of row 7 has zero length \(1 such rows\)"),
+])
+def test_bad_normals_are_refused_before_any_work(bad, message):
+    st = _jittered_grid(20, 15, 1.0)
+    X = np.column_stack([st, np.zeros(len(st))])
+    N = np.tile([0.0, 0.0, 1.0], (len(X), 1))
+    if isinstance(bad, str):
+        N[7] = np.nan if bad == "nan" else 0.0
+        bad = N
+    with pytest.raises(InputError, match=f"^{message}$"):
+        parametrize(X, normals=bad, progress=False)
+
+
+def test_duplicate_points_keep_their_first_normal_and_share_a_row():
+    X, N, F, _ = folded_strip(length=10.0, width=6.0)
+    Xd = np.concatenate([X, X[:3]])
+    Nd = np.concatenate([N, -N[:3]])  # the duplicates' own normals are ignored
+    result = parametrize(Xd, normals=Nd, progress=False)
+    np.testing.assert_array_equal(result.uv[-3:], result.uv[:3])
+    assert angle_distortion(X, F, result.uv[:len(X)]).flipped == 0
+
+
+def test_local_mesh_config_is_validated():
+    with pytest.raises(InputError, match=r"^LocalMeshConfig.neighbours: expected an int >= 3"):
+        LocalMeshConfig(neighbours=2)
+    with pytest.raises(InputError, match=r"^ParamConfig.free_map: unknown value 'mesh'"):
+        get_preset("fast", free_map="mesh")
