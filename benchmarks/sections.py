@@ -1,15 +1,15 @@
 """Marked sections of BENCHMARKS.md that one script writes and the others carry over.
 
 A section runs from ``<!-- NAME: begin -->`` to ``<!-- NAME: end -->``. ``bench_param.py``
-rewrites the file and carries every other script's section; ``bench_schedules.py`` and
-``gpu_section.py`` replace only their own.
+rewrites the file and carries every other script's section; ``bench_schedules.py``,
+``gpu_section.py``, ``bench_apps.py`` and ``bench_batch.py`` replace only their own.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-SECTIONS = ("bench_schedules", "gpu")
+SECTIONS = ("bench_schedules", "gpu", "bench_apps", "bench_batch")
 """Sections written by scripts other than bench_param.py, in file order."""
 
 

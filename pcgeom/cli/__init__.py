@@ -10,12 +10,12 @@ from __future__ import annotations
 import argparse
 
 from .._version import __version__
-from . import boundary, domains, evaluate, param, reconstruct
+from . import batch, boundary, domains, evaluate, param, reconstruct
 from ._common import Parser, add_command, run_command
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
-COMMANDS = (param, evaluate, boundary, reconstruct, domains)
+COMMANDS = (param, evaluate, boundary, reconstruct, batch, domains)
 """Command modules, in ``--help`` order."""
 
 _EPILOG = """\
@@ -25,6 +25,7 @@ examples:
   pcgeom evaluate mesh.ply mesh_uv.npz
   pcgeom boundary scan.ply --map scan_uv.npz --out scan_loops.json --plot scan_loops.png
   pcgeom reconstruct scan.ply --map scan_uv.npz --target-vertices 5000 --out scan_mesh.ply
+  pcgeom batch 'scans/*.ply' --out maps
   pcgeom domains show smile -o smile.png
 
 Run 'pcgeom COMMAND --help' for the options of each command. Bad input prints one line
