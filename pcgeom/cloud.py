@@ -14,6 +14,8 @@ import numpy as np
 from .errors import InputError
 
 __all__ = [
+    "find_outliers",
+    "surface_variation",
     "validate_normals",
     "validate_points",
     "validate_faces",
@@ -236,6 +238,79 @@ def validate_normals(normals, n_points: int, name: str = "normals") -> np.ndarra
         raise InputError(f"{name}: normal of row {int(np.flatnonzero(zero)[0])} has zero length "
                          f"({int(zero.sum())} such rows)")
     return N / length[:, None]
+
+
+OUTLIER_FACTOR = 4.0
+"""A point is an outlier when its mean distance to its neighbours exceeds this many times the
+median of that distance over its neighbours."""
+
+OFFSET_FACTOR = 3.0
+"""... or when it sits farther than this many median spacings off its neighbours' plane."""
+
+
+def find_outliers(X, neighbours: int = 16) -> np.ndarray:
+    """Stray points: far from the others, or off the surface their neighbours sample.
+
+    Two tests, each against the cloud's own scale (medians, which the strays cannot pull):
+
+    - **isolated**: ``d_i``, the mean distance of ``x_i`` to its 8 nearest points, exceeds
+      :data:`OUTLIER_FACTOR` times the median of ``d`` over its ``neighbours`` (the
+      statistical outlier test of PCL and Open3D, with a robust and local scale: scans are
+      denser in some places than others);
+    - **off the surface**: its height over the least-squares quadric of its ``neighbours``
+      nearest points (itself excluded, in their principal frame) exceeds :data:`OFFSET_FACTOR` times the median
+      nearest-neighbour spacing. Noise of about the spacing, and the other sheet of a fold
+      (which pulls the plane half-way), stay below it.
+
+    Parameters
+    ----------
+    X : (N, 3) array_like
+        Distinct points.
+
+    Returns
+    -------
+    (N,) bool
+        True for an outlier.
+    """
+    from scipy.spatial import cKDTree
+
+    X = np.asarray(X, dtype=np.float64)
+    k = min(neighbours, len(X) - 1)
+    dist, nb = cKDTree(X).query(X, k + 1)
+    d = dist[:, 1:9].mean(axis=1)
+    # Against the neighbours' own d: scans are sampled more densely in some places.
+    isolated = d > OUTLIER_FACTOR * np.median(d[nb[:, 1:]], axis=1)
+    # Height of x_i over the quadric fitted to its neighbours in their PCA frame (a plane
+    # would call the tip of a sharp, coarsely sampled peak an outlier).
+    P = X[nb[:, 1:]]
+    centre = P.mean(axis=1)
+    Q = P - centre[:, None, :]
+    _, frame = np.linalg.eigh(np.einsum("nki,nkj->nij", Q, Q))  # columns: n, e1, e2
+    local = np.einsum("nkd,nde->nke", Q, frame)
+    own = np.einsum("nd,nde->ne", X - centre, frame)
+
+    def basis(xy):
+        x, y = xy[..., 1], xy[..., 2]
+        return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
+
+    A = basis(local)  # (N, k, 6)
+    AtA = np.einsum("nki,nkj->nij", A, A) + 1e-12 * np.eye(6)
+    coef = np.linalg.solve(AtA, np.einsum("nki,nk->ni", A, local[..., 0])[..., None])[..., 0]
+    offset = np.abs(own[:, 0] - np.einsum("ni,ni->n", basis(own), coef))
+    return isolated | (offset > OFFSET_FACTOR * np.median(dist[:, 1]))
+
+
+def surface_variation(X, neighbours: int = 16) -> np.ndarray:
+    """``lambda_0 / (lambda_0 + lambda_1 + lambda_2)`` of each point's neighbourhood (Pauly et
+    al. 2002): 0 on a plane, about 0.3 (up to 1/3) inside a volume."""
+    from scipy.spatial import cKDTree
+
+    X = np.asarray(X, dtype=np.float64)
+    k = min(neighbours, len(X) - 1)
+    _, nb = cKDTree(X).query(X, k + 1)
+    Q = X[nb] - X[nb].mean(axis=1, keepdims=True)
+    values = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", Q, Q))
+    return values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)
 
 
 def fingerprint(points) -> str:

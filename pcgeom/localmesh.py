@@ -140,7 +140,7 @@ def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray) -> np.nda
 
 
 def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
-               progress: bool = False) -> LocalMesh:
+               exclude: np.ndarray | None = None, progress: bool = False) -> LocalMesh:
     """Build the manifold mesh of same-sheet tangent fans (steps 1-3 of the module).
 
     Parameters
@@ -162,7 +162,8 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     from scipy.sparse.csgraph import connected_components
 
     n = len(X)
-    candidates = _fans(X, normals, neighbours, progress)
+    kept = np.arange(n) if exclude is None else np.flatnonzero(~np.asarray(exclude, bool))
+    candidates = kept[_fans(X[kept], normals[kept], neighbours, progress)]
     faces = _merge(X, normals, candidates)
     main = np.zeros(n, dtype=bool)
     boundary = 0

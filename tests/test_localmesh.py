@@ -179,3 +179,42 @@ def test_local_mesh_config_is_validated():
         LocalMeshConfig(neighbours=2)
     with pytest.raises(InputError, match=r"^ParamConfig.free_map: unknown value 'mesh'"):
         get_preset("fast", free_map="mesh")
+
+
+def _bumps(n: int, seed: int = 0) -> np.ndarray:
+    """A smooth height field over the square [-1, 1]^2, ``n`` uniform random points."""
+    xy = np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 2))
+    z = 0.5 * np.exp(-((xy[:, 0] - 0.3) ** 2 + (xy[:, 1] + 0.2) ** 2) / 0.1)
+    return np.column_stack([xy, z])
+
+
+def test_stray_points_are_flagged_and_clean_surfaces_keep_every_point():
+    from pcgeom.cloud import find_outliers
+
+    X = _bumps(4000)
+    assert not find_outliers(X).any()  # a clean surface: nothing flagged
+    rng = np.random.default_rng(5)
+    strays = rng.uniform([-1.2, -1.2, 0.3], [1.2, 1.2, 1.0], (40, 3))  # off the surface
+    flags = find_outliers(np.concatenate([X, strays]))
+    assert flags[len(X):].mean() > 0.9 and flags[:len(X)].sum() == 0
+
+
+def test_outliers_are_mapped_last_not_dropped():
+    """One output row per input row; strays are counted and placed among their neighbours."""
+    X = _bumps(3000)
+    strays = np.random.default_rng(6).uniform([-1, -1, 0.4], [1, 1, 1.0], (30, 3))
+    result = parametrize(np.concatenate([X, strays]), progress=False)
+    assert result.uv.shape == (3030, 2) and np.isfinite(result.uv).all()
+    assert result.history[0]["outliers"] >= 27
+    inside = result.uv[:3000]
+    lo, hi = inside.min(axis=0), inside.max(axis=0)
+    assert ((result.uv[3000:] >= lo) & (result.uv[3000:] <= hi)).all()
+
+
+def test_a_volume_of_points_is_not_a_surface():
+    from pcgeom.train.localmesh import NOT_A_SURFACE
+
+    blob = np.random.default_rng(7).normal(size=(2000, 3))
+    with pytest.raises(InputError) as info:
+        parametrize(blob, progress=False)
+    assert str(info.value) == NOT_A_SURFACE

@@ -8,6 +8,7 @@ import time
 import numpy as np
 import torch
 
+from ..cloud import find_outliers, surface_variation
 from ..config import ParamConfig
 from ..errors import InputError
 from ..localmesh import conformal_factor, local_mesh, lscm_free
@@ -16,7 +17,18 @@ from .data import TrainData
 from .objective import Objective
 from .refine import refine
 
-__all__ = ["free_localmesh", "CLOSED_SURFACE"]
+__all__ = ["free_localmesh", "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
+
+MIN_MESHED = 0.5
+"""The smallest share of the points the local mesh's main part must hold."""
+
+MAX_VARIATION = 0.15
+"""Largest median surface variation (:func:`pcgeom.cloud.surface_variation`) of a surface;
+a volume of random points gives about 0.19 (16 neighbours), a smooth scan below 0.01, and
+face_human_choi with noise of half its mean edge length 0.12."""
+
+NOT_A_SURFACE = ("the cloud does not look like one sampled surface (its points fill a volume, "
+                 "or most are strays); check the input")
 
 CLOSED_SURFACE = (
     "the cloud looks like a closed surface (its local mesh has no boundary), and a closed "
@@ -48,28 +60,41 @@ def free_localmesh(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConf
     record : dict
         The history record: ``stage`` and ``kind`` ``"localmesh"``, ``normals`` (``"input"``
         or ``"estimated"``), ``faces``, ``boundary_edges``, ``unmeshed`` (points outside the
-        mesh's main part, interpolated), ``seconds``.
+        mesh's main part, outliers included, placed by interpolation from their nearest meshed
+        points), ``outliers`` (stray points, :func:`pcgeom.cloud.find_outliers`), ``seconds``.
 
     Raises
     ------
     InputError
-        The cloud samples a closed surface (:data:`CLOSED_SURFACE`).
+        The cloud samples a closed surface (:data:`CLOSED_SURFACE`), or less than
+        :data:`MIN_MESHED` of it fits one local mesh.
     """
     t0 = time.perf_counter()
     settings = config.local_mesh
+    outlier = find_outliers(Xn)
+    inliers = np.flatnonzero(~outlier)
+    if np.median(surface_variation(Xn[inliers])) > MAX_VARIATION:
+        raise InputError(NOT_A_SURFACE)
     source = "input"
     if normals is None:
         source = "estimated"
-        normals = orient_normals(Xn, estimate_normals(Xn, settings.normal_neighbours),
-                                 settings.normal_neighbours)
-    mesh = local_mesh(Xn, normals, settings.neighbours, progress=progress)
+        normals = np.zeros_like(Xn)  # outliers' rows stay zero: no pair and no fan uses them
+        normals[inliers] = orient_normals(
+            Xn[inliers], estimate_normals(Xn[inliers], settings.normal_neighbours),
+            settings.normal_neighbours)
+    mesh = local_mesh(Xn, normals, settings.neighbours, exclude=outlier, progress=progress)
+    meshed = float(mesh.main.mean())
+    if meshed < MIN_MESHED:
+        raise InputError(f"only {100 * meshed:.0f}% of the points fit one local mesh: "
+                         + NOT_A_SURFACE)
     if mesh.looks_closed:
         raise InputError(CLOSED_SURFACE)
     uv = lscm_free(Xn, mesh)
     lam_inv = conformal_factor(Xn, uv)
     record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
               "neighbours": settings.neighbours, "faces": mesh.n_faces,
-              "boundary_edges": mesh.boundary_edges, "unmeshed": int((~mesh.main).sum())}
+              "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),
+              "unmeshed": int((~mesh.main).sum())}
     if settings.refine_steps > 0:
         gen = torch.Generator(device="cpu")
         gen.manual_seed(seed)
