@@ -35,6 +35,7 @@ OPTIMIZERS = ("rmsprop", "adam")
 DTYPES = ("float32", "float64")
 INIT_MAPS = ("random", "plane")
 FREE_MAPS = ("networks", "localmesh")
+DISK_MAPS = ("networks", "localmesh")
 NET_INITS = ("siren", "default")
 
 
@@ -249,8 +250,12 @@ class ParamConfig:
     """How the free-boundary map is made: ``"networks"``, Algorithm 1 (paper), or
     ``"localmesh"``, LSCM on a manifold mesh of same-sheet tangent fans
     (:class:`LocalMeshConfig`). A bounded domain always trains the networks."""
+    disk_map: str = "networks"
+    """How a map onto a disk without landmarks is made: ``"networks"`` (paper) or
+    ``"localmesh"``, the local-mesh map made conformal onto the disk
+    (:func:`pcgeom.localmesh.conformal_disk`)."""
     local_mesh: LocalMeshConfig = LocalMeshConfig()
-    """Settings of the ``"localmesh"`` free map."""
+    """Settings of the ``"localmesh"`` maps."""
 
     def __post_init__(self) -> None:
         _count("ParamConfig", "domain_samples", self.domain_samples)
@@ -258,6 +263,7 @@ class ParamConfig:
         _choice("ParamConfig", "init_map", self.init_map, INIT_MAPS)
         _choice("ParamConfig", "dtype", self.dtype, DTYPES)
         _choice("ParamConfig", "free_map", self.free_map, FREE_MAPS)
+        _choice("ParamConfig", "disk_map", self.disk_map, DISK_MAPS)
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             expected = _field_types(ParamConfig)[f.name]
@@ -335,8 +341,9 @@ PRESETS: dict[str, ParamConfig] = {
     # randomly initialized sine networks, all stages until the batch is the cloud.
     "paper": ParamConfig(),
     # Everyday use: the free boundary by the local-mesh map (LSCM on same-sheet tangent fans:
-    # seconds, and it unfolds where a scan doubles back), a bounded domain by `networks`.
-    "fast": dataclasses.replace(_FAST_NETWORKS, free_map="localmesh"),
+    # seconds, and it unfolds where a scan doubles back), the disk by the same made
+    # conformal onto it, other domains and landmarks by the networks.
+    "fast": dataclasses.replace(_FAST_NETWORKS, free_map="localmesh", disk_map="localmesh"),
     # The networks for everyday use: Adam at 1e-3 on SIREN-initialized nets, the
     # parametrization net starting from the best-fit-plane projection, for two short stages
     # (sigma 0.5 -> 0.35, batches 1024 -> 2048) to get a smooth unfolded map, then the

@@ -12,6 +12,8 @@ its own process (once, claimed through a marker file), makes one scan's reads fa
 
 from __future__ import annotations
 
+import dataclasses
+
 import csv
 import json
 import os
@@ -37,8 +39,9 @@ from tests.helpers import assert_cli_fails, tiny_preset
 
 def _tiny(name: str = "fast"):
     """The preset shrunk to seconds, with two short network stages so that a map trained in
-    stages has a checkpoint mid-scan; unknown names still raise the real error."""
-    return tiny_preset(name, max_stages=2)
+    stages has a checkpoint mid-scan (the disk by the networks too: ``fast`` maps it by the
+    local mesh, in one step); unknown names still raise the real error."""
+    return dataclasses.replace(tiny_preset(name, max_stages=2), disk_map="networks")
 
 
 def _write_scans(folder: Path, n: int = 4, broken: bool = True) -> list[Path]:

@@ -29,7 +29,8 @@ def _ids(paths):
 
 
 def test_there_are_notebooks():
-    assert {"quickstart", "domains_and_landmarks"} <= {p.stem for p in NOTEBOOKS}
+    assert {"quickstart", "domains_and_landmarks", "distortion_analysis",
+            "boundary_and_reconstruction"} <= {p.stem for p in NOTEBOOKS}
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=_ids(NOTEBOOKS))

@@ -631,7 +631,7 @@ def test_disk_not_centred_at_the_origin(peaks):
     V, _ = peaks
     centre = np.array([3.0, -2.0])
     domain = Disk(center=(3.0, -2.0))
-    fast = get_preset("fast")
+    fast = get_preset("networks")  # fast maps a disk by the local mesh (tests/test_localmesh)
     # The fast preset with 40 epochs of batches of 128 and 100 refinement steps: 5 s.
     cfg = dataclasses.replace(
         fast,

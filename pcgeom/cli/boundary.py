@@ -31,7 +31,8 @@ examples:
   pcgeom boundary scan.ply --map scan_uv.npz --out scan_loops.json --plot scan_loops.png
       reuses a map written by 'pcgeom param scan.ply' (no --domain)
   pcgeom boundary scan.ply --map scan_uv.npz --h 0.02 --out loops.json --quiet --json
-      the paper's rule: remove every triangle with an edge longer than 0.02 (map units)
+      the paper's rule: remove every triangle with an edge longer than 0.02 (map units; pick
+      2-3 times the map's point spacing, docs/choosing_parameters.md)
 
 LOOPS.json holds {{"loops": [[i0, i1, ...], ...], "h": ..., ...}}: each loop as rows of INPUT
 (from 0), outer loop first (counter-clockwise in the map), then the holes by size. Without

@@ -1,4 +1,5 @@
-"""The ``"localmesh"`` free map as a run: normals, the local mesh, LSCM, optional refinement."""
+"""The ``"localmesh"`` maps as a run: normals, the local mesh, LSCM, then the disk or an
+optional refinement."""
 
 from __future__ import annotations
 
@@ -11,13 +12,14 @@ import torch
 from ..cloud import find_outliers, surface_variation
 from ..config import ParamConfig
 from ..errors import InputError
-from ..localmesh import conformal_factor, local_mesh, lscm_free
+from ..domains import Disk, Domain
+from ..localmesh import conformal_disk, conformal_factor, local_mesh, lscm_free
 from ..normals import estimate_normals, orient_normals
 from .data import TrainData
 from .objective import Objective
 from .refine import refine
 
-__all__ = ["free_localmesh", "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
+__all__ = ["localmesh_map", "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
 
 MIN_MESHED = 0.5
 """The smallest share of the points the local mesh's main part must hold."""
@@ -38,10 +40,10 @@ CLOSED_SURFACE = (
 """The message of the :class:`InputError` for a closed surface."""
 
 
-def free_localmesh(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
-                   device: torch.device, dtype: torch.dtype, seed: int, progress: bool
-                   ) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The free-boundary map of the normalized cloud by :mod:`pcgeom.localmesh`.
+def localmesh_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
+                  domain: Domain, *, device: torch.device, dtype: torch.dtype, seed: int,
+                  progress: bool) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The map of the normalized cloud by :mod:`pcgeom.localmesh`: free, or onto a disk.
 
     Parameters
     ----------
@@ -50,8 +52,11 @@ def free_localmesh(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConf
     normals : (N, 3) float64 or None
         Their oriented unit normals; None: estimated (PCA) and oriented by propagation.
     config : ParamConfig
-        Uses ``local_mesh`` and, when ``local_mesh.refine_steps > 0``, ``refine`` and
-        ``weights``.
+        Uses ``local_mesh`` and, for the free boundary when ``local_mesh.refine_steps > 0``,
+        ``refine`` and ``weights``.
+    domain : FreeBoundary or Disk
+        A disk gets the free map made conformal onto it
+        (:func:`pcgeom.localmesh.conformal_disk`), scaled and moved to its radius and centre.
 
     Returns
     -------
@@ -91,6 +96,15 @@ def free_localmesh(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConf
         raise InputError(CLOSED_SURFACE)
     uv = lscm_free(Xn, mesh)
     lam_inv = conformal_factor(Xn, uv)
+    if isinstance(domain, Disk):
+        unit = conformal_disk(Xn, mesh, uv)
+        uv = np.asarray(domain.center) + domain.radius * unit
+        record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
+                  "neighbours": settings.neighbours, "faces": mesh.n_faces,
+                  "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),
+                  "unmeshed": int((~mesh.main).sum()), "onto": domain.spec,
+                  "seconds": time.perf_counter() - t0}
+        return uv, conformal_factor(Xn, uv), record
     record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
               "neighbours": settings.neighbours, "faces": mesh.n_faces,
               "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),

@@ -23,16 +23,16 @@ import torch
 from .._version import __version__
 from ..cloud import deduplicate, fingerprint, normalize, validate_normals, validate_points
 from ..config import ParamConfig, get_preset
-from ..domains import Domain, get_domain
+from ..domains import Disk, Domain, get_domain
 from ..errors import InputError
 from ..io.results import ParamResult
 from .checkpoint import load_checkpoint, save_checkpoint
 from .data import TrainData
 from .device import resolve_device
+from .localmesh import localmesh_map
 from .networks import build_networks, run_network_stage
 from .objective import Objective
 from .plan import stage_plan
-from .localmesh import free_localmesh
 from .refine import refine
 
 __all__ = ["parametrize"]
@@ -132,9 +132,11 @@ def parametrize(
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
     if lm_points and not domain.bounded:
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
-    if not domain.bounded and config.free_map == "localmesh":
-        uv, lam_inv, record = free_localmesh(Xn, normals, config, device=dev, dtype=dtype,
-                                             seed=seed, progress=progress)
+    free = not domain.bounded and config.free_map == "localmesh"
+    disk = isinstance(domain, Disk) and not landmarks and config.disk_map == "localmesh"
+    if free or disk:
+        uv, lam_inv, record = localmesh_map(Xn, normals, config, domain, device=dev,
+                                            dtype=dtype, seed=seed, progress=progress)
         if on_stage is not None:
             on_stage(record, uv[inverse])
         return ParamResult(

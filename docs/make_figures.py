@@ -1,0 +1,192 @@
+"""Draw the figures of docs/choosing_parameters.md with pcgeom's own functions.
+
+    python docs/make_figures.py            # writes docs/fig_*.png, prints the measured figures
+
+About two minutes on two CPU cores: the README's picture (`pcgeom param --example peaks3`,
+seconds), three network-only maps of a 900-point three-peaks patch (one stage of the
+`networks` preset from a random start, for three sigma), a few HAND evaluations, and the
+boundary loops of a holed patch for several h. The printed figures are the ones
+docs/choosing_parameters.md quotes. PNGs are stored with a 128-colour palette to keep the
+repository small.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+
+from pcgeom import get_domain, get_preset, parametrize  # noqa: E402
+from pcgeom.apps.plot import plot_boundary_h_sweep  # noqa: E402
+from pcgeom.examples import peaks_surface  # noqa: E402
+from pcgeom.losses.hand import hand, modified_hausdorff  # noqa: E402
+from pcgeom.metrics import angle_distortion  # noqa: E402
+
+DOCS = Path(__file__).resolve().parent
+N_SIDE = 30
+"""Three-peaks patches of 30 x 30 = 900 points: seconds per map."""
+DPI = 100
+
+
+def shrink_png(path: Path, max_width: int = 1000) -> None:
+    """Rewrite ``path`` with a 128-colour palette (and at most ``max_width`` pixels wide)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        im = im.convert("RGB")
+        if im.width > max_width:
+            im = im.resize((max_width, round(im.height * max_width / im.width)), Image.LANCZOS)
+        im.quantize(colors=128, method=Image.Quantize.MEDIANCUT).save(path, optimize=True)
+
+
+def readme_picture(path: Path) -> None:
+    """The README's picture: exactly what its first command draws."""
+    import tempfile
+
+    from pcgeom import cli
+
+    with tempfile.TemporaryDirectory() as tmp:
+        code = cli.main(["param", "--example", "peaks3", "--out", str(Path(tmp) / "uv.npz"),
+                         "--plot", str(path), "--quiet"])
+    assert code == 0, code
+
+
+def sigma_theory(path: Path) -> None:
+    """The LEG theorem's constant (sigma^2 exp((1 + r_f)^2 R^2 / sigma^2))^2 against sigma / R."""
+    s = np.linspace(0.35, 4, 400)  # sigma / R
+    fig, ax = plt.subplots(figsize=(5.5, 3.2))
+    for r_f in (0.0, 0.5):
+        c = (s**2 * np.exp((1 + r_f) ** 2 / s**2)) ** 2  # in units of R^4
+        ax.plot(s, c, label=f"r_f = {r_f}: minimum at sigma = {1 + r_f:g} R")
+        ax.axvline(1 + r_f, ls=":", c=ax.lines[-1].get_color())
+    ax.set_yscale("log")
+    ax.set_xlabel("sigma / R (R: longest edge of the triangulation)")
+    ax.set_ylabel("constant in front of LEG (R^4)")
+    ax.set_title("LEG bounds angle distortion best at sigma ~ R", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+
+
+def sigma_sweep(path: Path, V: np.ndarray, F: np.ndarray) -> list[dict]:
+    """One network stage (``networks``, random start, no refinement) for three LEG sigma."""
+    base = get_preset("networks")
+    rows = []
+    for sigma in (0.03, 0.5, 3.0):
+        config = get_preset(
+            "networks",
+            schedule=dataclasses.replace(base.schedule, epochs=60, epochs_min=30,
+                                         batch_points=256, sigma=sigma),
+            max_stages=1, init_map="random", refine=dataclasses.replace(base.refine, steps=0),
+        )
+        t0 = time.perf_counter()
+        res = parametrize(V, "free", config=config, seed=0, progress=False)
+        rep = angle_distortion(V, F, res.uv)
+        rows.append({"sigma": sigma, "uv": res.uv, "rep": rep,
+                     "seconds": time.perf_counter() - t0})
+        print(f"network stage, sigma = {sigma:g}: {rep.mean_abs:.4f} rad, "
+              f"{rep.flipped} flipped of {rep.n_faces}, {rows[-1]['seconds']:.0f} s")
+    from matplotlib.colors import LogNorm
+
+    norm = LogNorm(1e-3, 1.5)
+    fig, axes = plt.subplots(1, len(rows), figsize=(4 * len(rows), 3.9))
+    for ax, row in zip(axes, rows):
+        err = row["rep"].per_corner.mean(axis=1)  # (M,) per triangle
+        tpc = ax.tripcolor(row["uv"][:, 0], row["uv"][:, 1], F, facecolors=err, cmap="magma",
+                           norm=norm)
+        ax.set_aspect("equal")
+        ax.set_xticks([])
+        ax.set_yticks([])
+        ax.set_title(f"sigma = {row['sigma']:g}\n{row['rep'].mean_abs:.3f} rad, "
+                     f"{row['rep'].flipped} flipped", fontsize=10)
+    fig.colorbar(tpc, ax=axes, shrink=0.8, label="mean |angle error| per triangle (rad)")
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return rows
+
+
+def alpha_curve(path: Path) -> list[tuple[float, float]]:
+    """HAND of a map that misses the unit disk, against alpha, beside the exact distance."""
+    disk = get_domain("disk")
+    W = torch.as_tensor(disk.sample(2000, seed=0), dtype=torch.float64)  # (M, 2)
+    # A map that misses the disk: an ellipse 1.3 x 0.8, shifted by 0.1.
+    Y = torch.as_tensor(disk.sample(1500, seed=1), dtype=torch.float64)
+    Y = Y * torch.tensor([1.3, 0.8], dtype=torch.float64) + torch.tensor([0.1, 0.0],
+                                                                          dtype=torch.float64)
+    exact = float(modified_hausdorff(Y, W))
+    alphas = np.geomspace(1, 1000, 25)
+    values = [float(hand(Y, W, float(a))) for a in alphas]
+    fig, ax = plt.subplots(figsize=(5.5, 3.2))
+    ax.plot(alphas, values, "o-", ms=3, label="HAND(Y, W), alpha")
+    ax.axhline(exact, c="k", ls=":", label=f"modified Hausdorff distance {exact:.3f}")
+    for a in (2, 20, 100):
+        ax.axvline(a, c="grey", lw=0.6)
+    ax.set_xscale("log")
+    ax.set_xlabel("alpha (map units: 1 / distance)")
+    ax.set_ylabel("distance")
+    ax.set_title("HAND reaches the Hausdorff distance as alpha grows\n"
+                 "(grey: the paper's 2, 20 and cap 100)", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    picked = [(a, v) for a, v in zip(alphas, values) if a in (1.0, 1000.0)]
+    for a in (2, 20, 100):
+        print(f"alpha = {a}: HAND {float(hand(Y, W, float(a))):.3f} (exact {exact:.3f})")
+    return picked
+
+
+def h_sweep(path: Path) -> None:
+    """Boundary loops of a holed patch's free map for several h, and the default rule."""
+    from scipy.spatial import cKDTree
+
+    from pcgeom.apps.boundary import detect_boundary
+
+    V, _ = peaks_surface("peaks3", n_side=N_SIDE)
+    keep = np.ones(len(V), bool)
+    for (cx, cy), r in [((-0.45, 0.35), 0.25), ((0.4, -0.4), 0.2)]:
+        keep &= np.hypot(V[:, 0] - cx, V[:, 1] - cy) > r
+    V = V[keep]
+    res = parametrize(V, "free", config=get_preset("fast"), seed=0, progress=False)
+    spacing = float(np.median(cKDTree(res.uv).query(res.uv, k=2)[0][:, 1]))
+    hs = [1.2 * spacing, 1.6 * spacing, 2.5 * spacing, 6 * spacing, 20 * spacing, None]
+    for h in hs:
+        n = len(detect_boundary(res.uv, h).loops)
+        label = "default rule" if h is None else f"h = {h / spacing:.1f} spacings"
+        print(f"{label}: {n} loops (true: 3)")
+    plot_boundary_h_sweep(res.uv, hs, path, title="a patch with two holes: loops for several h")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default=str(DOCS), help="folder of the PNGs (default: docs/)")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    torch.manual_seed(0)
+    start = time.perf_counter()
+    V, F = peaks_surface("peaks3", n_side=N_SIDE)
+    figures = {
+        "peaks3_uv.png": readme_picture,
+        "fig_sigma_theory.png": sigma_theory,
+        "fig_sigma.png": lambda path: sigma_sweep(path, V, F),
+        "fig_alpha.png": alpha_curve,
+        "fig_h.png": h_sweep,
+    }
+    for name, draw in figures.items():
+        draw(out / name)
+        shrink_png(out / name)
+    print(f"done in {time.perf_counter() - start:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
