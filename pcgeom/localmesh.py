@@ -79,34 +79,83 @@ def _tangent_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return a, np.cross(n, a)
 
 
-def _fans(X: np.ndarray, normals: np.ndarray, neighbours: int, progress: bool) -> np.ndarray:
+def _fans(X: np.ndarray, normals: np.ndarray, neighbours: int, progress: bool,
+          chunk: int = 50_000) -> np.ndarray:
     """Triangles of every point's Delaunay star among its same-sheet neighbours."""
-    from scipy.spatial import Delaunay, QhullError, cKDTree
+    from scipy.spatial import cKDTree
+    from tqdm.auto import tqdm
 
     k = min(neighbours, len(X) - 1)
     _, nb = cKDTree(X).query(X, k + 1)
-    a, b = _tangent_basis(normals)
-    same = np.einsum("nkd,nd->nk", normals[nb[:, 1:]], normals) > 0
-    offsets = X[nb] - X[:, None, :]  # (N, k + 1, 3); row 0 is the point itself
-    pa = np.einsum("nkd,nd->nk", offsets, a)
-    pb = np.einsum("nkd,nd->nk", offsets, b)
-    from tqdm.auto import tqdm
+    starts = range(0, len(X), chunk)
+    blocks = [_stars(X, normals, nb[s:s + chunk], np.arange(s, min(s + chunk, len(X))))
+              for s in tqdm(starts, desc="local mesh", unit="block", disable=not progress,
+                            leave=False)]
+    return np.concatenate(blocks).astype(np.int64)
 
-    fans = []
-    for i in tqdm(range(len(X)), desc="local mesh", unit="pt", disable=not progress,
-                  mininterval=0.5, leave=False):
-        keep = np.flatnonzero(np.r_[True, same[i]])
-        if len(keep) < 3:
-            continue
-        try:
-            tri = Delaunay(np.column_stack([pa[i, keep], pb[i, keep]]))
-        except QhullError:  # all neighbours on a line in the tangent plane
-            continue
-        star = tri.simplices[(tri.simplices == 0).any(axis=1)]
-        fans.append(nb[i, keep][star])
-    if not fans:
-        return np.zeros((0, 3), dtype=np.int64)
-    return np.concatenate(fans).astype(np.int64)
+
+def _circular_neighbours(alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each slot of each row, the previous and the next alive slot in circular order
+    (positions in the row doubled: ``< k`` is one lap back, ``>= k`` one lap on; ``-1`` and
+    ``>= 2k`` where there is none)."""
+    k = alive.shape[1]
+    cols = np.arange(k)[None, :]
+    before = np.concatenate([np.where(alive, cols, -1), np.where(alive, cols + k, -1)], axis=1)
+    prev = np.maximum.accumulate(before, axis=1)[:, k - 1:2 * k - 1]
+    after = np.concatenate([np.where(alive, cols, 3 * k), np.where(alive, cols + k, 3 * k)],
+                           axis=1)
+    nxt = np.minimum.accumulate(after[:, ::-1], axis=1)[:, ::-1][:, 1:k + 1]
+    return prev, nxt
+
+
+def _stars(X: np.ndarray, normals: np.ndarray, nb: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """The Delaunay star of each point ``idx`` among its same-sheet neighbours ``nb[:, 1:]``,
+    projected on its tangent plane, for all points at once.
+
+    ``x_j`` is a Delaunay neighbour of the point (the origin) when some circle through both is
+    empty. Inversion about the origin (``q = p / |p|^2``) turns those circles into lines, so
+    the neighbours are the vertices of the convex hull of the ``q`` and the origin. Sorted by
+    angle, a neighbour inside the triangle of the origin and its two hull neighbours (a
+    right turn, within a wedge under pi) is never a hull vertex: such neighbours are dropped
+    until none is left. The star's triangles join consecutive survivors less than pi apart.
+    Equal, up to ties between cocircular points, to scipy's Delaunay of each neighbourhood.
+    """
+    k = nb.shape[1] - 1
+    a, b = _tangent_basis(normals[idx])
+    js = nb[:, 1:]
+    same = np.einsum("nkd,nd->nk", normals[js], normals[idx]) > 0
+    offsets = X[js] - X[idx][:, None, :]
+    p = np.stack([np.einsum("nkd,nd->nk", offsets, a), np.einsum("nkd,nd->nk", offsets, b)],
+                 axis=-1)
+    angle = np.where(same, np.arctan2(p[..., 1], p[..., 0]), np.inf)
+    order = np.argsort(angle, axis=1)
+    js = np.take_along_axis(js, order, axis=1)
+    p = np.take_along_axis(p, order[..., None], axis=1)
+    angle = np.take_along_axis(angle, order, axis=1)
+    alive = np.isfinite(angle)
+    angle = np.where(alive, angle, 0.0)
+    q = p / np.maximum((p ** 2).sum(axis=-1, keepdims=True), 1e-300)
+    cols = np.arange(k)[None, :]
+    for _ in range(k):
+        prev, nxt = _circular_neighbours(alive)
+        pi, ni = prev % k, nxt % k
+        valid = alive & (prev >= 0) & (nxt < 2 * k) & (pi != ni) & (pi != cols)
+        qa = np.take_along_axis(q, pi[..., None], axis=1)
+        qb = np.take_along_axis(q, ni[..., None], axis=1)
+        wedge = np.mod(np.take_along_axis(angle, ni, axis=1)
+                       - np.take_along_axis(angle, pi, axis=1), 2 * np.pi)
+        turn = ((q[..., 0] - qa[..., 0]) * (qb[..., 1] - q[..., 1])
+                - (q[..., 1] - qa[..., 1]) * (qb[..., 0] - q[..., 0]))
+        inside = valid & (wedge < np.pi) & (turn <= 0)
+        if not inside.any():
+            break
+        alive &= ~inside
+    _, nxt = _circular_neighbours(alive)
+    ni = nxt % k
+    gap = np.mod(np.take_along_axis(angle, ni, axis=1) - angle, 2 * np.pi)
+    keep = alive & (nxt < 2 * k) & (ni != cols) & (gap < np.pi)
+    r, c = np.nonzero(keep)
+    return np.column_stack([idx[r], js[r, c], js[r, ni[r, c]]])
 
 
 def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray) -> np.ndarray:

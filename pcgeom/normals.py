@@ -55,9 +55,10 @@ def estimate_normals(X: np.ndarray, neighbours: int = 16) -> np.ndarray:
 def orient_normals(X: np.ndarray, normals: np.ndarray, neighbours: int = 16) -> np.ndarray:
     """Flip normals to one consistent side by propagation over a minimum spanning tree.
 
-    Each connected part of the neighbour graph is oriented on its own, from its point of
-    largest z, whose normal is made to point up (+z): for a scan seen from above, normals
-    towards the scanner.
+    The largest connected part of the neighbour graph is oriented from its point of largest z,
+    whose normal is made to point up (+z): for a scan seen from above, normals towards the
+    scanner. Each smaller part (an island cut off by holes) then starts from its point
+    nearest to the parts already oriented, made to agree with that neighbour.
 
     Parameters
     ----------
@@ -92,12 +93,23 @@ def orient_normals(X: np.ndarray, normals: np.ndarray, neighbours: int = 16) -> 
     tree = minimum_spanning_tree(G.maximum(G.T))
     tree = tree + tree.T
     n_parts, label = connected_components(tree, directed=False)
-    for part in range(n_parts):
+    oriented = np.zeros(n, dtype=bool)
+    for part in np.argsort(-np.bincount(label)):  # the largest part first
         members = np.flatnonzero(label == part)
-        seed = members[np.argmax(X[members, 2])]
-        if N[seed, 2] < 0:
-            N[seed] = -N[seed]
+        if oriented.any():
+            # A smaller part (an island cut off by a hole) agrees with the nearest oriented
+            # point: each part's own top point would orient it at random relative to the rest.
+            done = np.flatnonzero(oriented)
+            dist, near = cKDTree(X[done]).query(X[members])
+            seed = members[np.argmin(dist)]
+            if N[seed] @ N[done[near[np.argmin(dist)]]] < 0:
+                N[seed] = -N[seed]
+        else:
+            seed = members[np.argmax(X[members, 2])]
+            if N[seed, 2] < 0:
+                N[seed] = -N[seed]
         order, parent = breadth_first_order(tree, seed, directed=False)
+        oriented[order] = True
         # In BFS order each parent is final before its children are visited.
         for v in order[1:]:
             if N[v] @ N[parent[v]] < 0:

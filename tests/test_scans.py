@@ -367,11 +367,11 @@ def test_head_range_scan_maps(head_scan, with_normals):
         # (the one on seed 0 folded by the noise).
         assert got["mean"] < 0.08 and got["flipped"] <= 3
     else:
-        # Measured: 0.0986, 0.1004, 0.0957 rad; 118, 112, 109 flipped (1.7 to 1.8%), all but
-        # 2 in the small islands the occlusions cut out of the hair: their estimated normals
-        # are oriented on their own, 4% of all wrong, and the islands are placed by
-        # interpolation (299 unmeshed points against 51 with the scan's normals).
-        assert got["mean"] < 0.115 and got["upright_flips"] < 0.025
+        # Measured (seeds 0, 1): 0.0686, 0.0696 rad; 2, 0 flipped. Before the small islands
+        # the occlusions cut out of the hair took their orientation from their nearest
+        # oriented neighbour (pcgeom.normals.orient_normals), each was oriented on its own:
+        # 4% of the normals wrong, 0.0986 rad and 118 flipped (1.8%).
+        assert got["mean"] < 0.08 and got["flipped"] <= 6
 
 
 # --- a closed surface ---------------------------------------------------------------------
