@@ -112,10 +112,10 @@ def estimate_lines(results: list[dict], cores: int) -> list[str]:
     return [
         f"Estimate on paper for {ESTIMATE_SCANS:,} such scans on {ESTIMATE_MACHINES} machines "
         f"of {ESTIMATE_CORES} cores, from the best layout here per core "
-        f"({best['workers']}x{best['threads']}: {core_seconds:.0f} core-seconds per scan, "
-        f"start-up included): {ESTIMATE_SCANS} x {core_seconds:.0f} / "
+        f"({best['workers']}x{best['threads']}: {core_seconds:.2g} core-seconds per scan, "
+        f"start-up included): {ESTIMATE_SCANS} x {core_seconds:.2g} / "
         f"{ESTIMATE_MACHINES * ESTIMATE_CORES} = "
-        f"{ESTIMATE_SCANS * core_seconds / (ESTIMATE_MACHINES * ESTIMATE_CORES) / 60:.0f} min "
+        f"{ESTIMATE_SCANS * core_seconds / (ESTIMATE_MACHINES * ESTIMATE_CORES) / 60:.2g} min "
         f"if the cores stay busy; in whole waves of {slots} scans at once, "
         f"{waves} x {per_scan:.1f} s (median training time per scan) = "
         f"{waves * per_scan / 60:.1f} min of training. It assumes a core of those machines is "

@@ -349,6 +349,9 @@ def main(argv=None) -> int:
     p.add_argument("--sizes", nargs="*", type=int,
                    default=[5_000, 20_000, 50_000, 100_000, 300_000, 1_000_000])
     p.add_argument("--out", type=Path, default=REPO / "BENCHMARKS.md")
+    p.add_argument("--section", default="bench_scans",
+                   help="the marked section of --out to replace (bench_scans_large for a run "
+                        "of the largest sizes alone: --surfaces --noise --disk --sizes 1000000)")
     args = p.parse_args(argv)
     available = [s for s in args.surfaces
                  if s.startswith("peaks") and "_" not in s or (DATA_DIR / f"{s}.ply").exists()]
@@ -360,13 +363,14 @@ def main(argv=None) -> int:
                          args.slow_surfaces)
         noise = noise_rows([s for s in args.noise if (DATA_DIR / f"{s}.ply").exists()], work)
         scale = scale_rows(args.sizes, work) if args.sizes else []
-    plot = REPO / "benchmarks" / "results" / "scans_time_vs_n.png" if scale else None
+    stem = "scans" if args.section == "bench_scans" else args.section
+    plot = REPO / "benchmarks" / "results" / f"{stem}_time_vs_n.png" if len(scale) > 1 else None
     if plot is not None:
         plot_scale(scale, plot)
-    write_section(args.out, "bench_scans",
+    write_section(args.out, args.section,
                   render(quality, disk, noise, scale, argv if argv is not None else sys.argv[1:],
                          plot))
-    log(f"wrote the bench_scans section of {args.out}")
+    log(f"wrote the {args.section} section of {args.out}")
     return 0
 
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-SECTIONS = ("bench_schedules", "gpu", "bench_apps", "bench_batch", "bench_scans")
+SECTIONS = ("bench_schedules", "gpu", "bench_apps", "bench_batch", "bench_scans",
+            "bench_scans_large")
 """Sections written by scripts other than bench_param.py, in file order."""
 
 
