@@ -243,7 +243,6 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     import igl
     import scipy.sparse as sp
     from scipy.sparse.linalg import spsolve
-    from scipy.spatial import cKDTree
 
     main = np.flatnonzero(mesh.main)
     remap = np.full(len(X), -1, dtype=np.int64)
@@ -271,14 +270,7 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     flat[free] = z
     U = np.full((len(X), 2), np.nan)
     U[main] = np.column_stack([flat[:m], flat[m:]])
-    rest = np.flatnonzero(~mesh.main)
-    if len(rest):
-        k = min(8, len(main))
-        dist, nb = cKDTree(X[main]).query(X[rest], k)
-        dist, nb = np.atleast_2d(dist), np.atleast_2d(nb)
-        w = 1.0 / np.maximum(dist, 1e-12)
-        U[rest] = np.einsum("rk,rkd->rd", w, U[main][nb]) / w.sum(axis=1, keepdims=True)
-    return _principal_pose(U)
+    return _principal_pose(_interpolate_rest(X, U, mesh.main))
 
 
 def _principal_pose(U: np.ndarray) -> np.ndarray:

@@ -14,7 +14,8 @@ where the input files it names are created first from a small three-peaks patch:
 Training is shrunk to a second: every command module's ``get_preset`` is patched with
 ``tests.helpers.tiny_preset`` (what ``tests/test_cli.py`` does; the CLI has no size option of
 its own), so ``--preset fast`` and ``--preset paper`` keep their names and their checks.
-``--device cuda`` runs on the CPU when CUDA is not available. An example passes when it exits
+An example naming ``--device cuda`` would run on the CPU when CUDA is not available (none
+does today: they say ``--device auto``). An example passes when it exits
 with status 0 and writes every output it names (``--out``, ``--out-ply``, ``--plot``, ``-o``).
 """
 

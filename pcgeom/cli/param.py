@@ -41,8 +41,9 @@ examples:
       map onto the unit disk; the PLY holds the mapped points (z = 0) and the input faces
   pcgeom param face.ply --domain smile --plot face_uv.png
       onto the smiling face (unit disk minus two eyes and a mouth); see 'pcgeom domains'
-  pcgeom param scan.xyz --preset paper --device cuda --seed 3 --quiet --json
-      the paper's full schedule on a GPU; one JSON object on stdout for scripts
+  pcgeom param scan.xyz --preset paper --device auto --seed 3 --quiet --json
+      the paper's full schedule (on a GPU when there is one: hours on a CPU); one JSON
+      object on stdout for scripts
   pcgeom param scan.ply --domain disk --landmarks marks.json
       map onto the disk with landmark pairs (see README, "Landmark files")
   pcgeom param scan.las --normals ignore --json

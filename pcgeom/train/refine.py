@@ -30,6 +30,9 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
         The networks' map and l at the points.
     objective : Objective
     config : RefineConfig
+    normals : (N, 3) float64, optional
+        Oriented normals: pairs whose normals disagree (``n_i . n_j <= 0``, the two sheets of
+        a surface that doubles back) are left out of LEG.
 
     Returns
     -------
