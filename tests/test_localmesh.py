@@ -237,3 +237,21 @@ def test_disk_map_is_conformal_inside_the_disk_and_beats_the_harmonic_map():
     # Another disk: the same map, moved and scaled.
     moved = parametrize(V, Disk(center=(2.0, -1.0), radius=0.5), progress=False)
     np.testing.assert_allclose(moved.uv, (2.0, -1.0) + 0.5 * result.uv, atol=1e-9)
+
+
+def test_optional_refinement_after_the_local_mesh_records_its_loss():
+    import dataclasses
+
+    from pcgeom.examples import peaks_surface
+
+    V, F = peaks_surface("peaks3", n_side=30)
+    fast = get_preset("fast")
+    cfg = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh,
+                                                                   refine_steps=20))
+    plain = parametrize(V, config=fast, progress=False)
+    refined = parametrize(V, config=cfg, progress=False)
+    record = refined.history[0]
+    assert record["refine_steps"] == 20 and {"leg", "total"} <= set(record)
+    assert "leg" not in plain.history[0]
+    assert not np.allclose(refined.uv, plain.uv)  # the refinement moved the points
+    assert angle_distortion(V, F, refined.uv).flipped == 0

@@ -11,12 +11,12 @@ import torch
 
 from ..cloud import find_outliers, surface_variation
 from ..config import ParamConfig
-from ..errors import InputError
 from ..domains import Disk, Domain
+from ..errors import InputError
 from ..localmesh import conformal_disk, conformal_factor, local_mesh, lscm_free
 from ..normals import estimate_normals, orient_normals
 from .data import TrainData
-from .objective import Objective
+from .objective import LOSS_TERMS, Objective
 from .refine import refine
 
 __all__ = ["localmesh_map", "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
@@ -95,20 +95,15 @@ def localmesh_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfi
     if mesh.looks_closed:
         raise InputError(CLOSED_SURFACE)
     uv = lscm_free(Xn, mesh)
-    lam_inv = conformal_factor(Xn, uv)
-    if isinstance(domain, Disk):
-        unit = conformal_disk(Xn, mesh, uv)
-        uv = np.asarray(domain.center) + domain.radius * unit
-        record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
-                  "neighbours": settings.neighbours, "faces": mesh.n_faces,
-                  "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),
-                  "unmeshed": int((~mesh.main).sum()), "onto": domain.spec,
-                  "seconds": time.perf_counter() - t0}
-        return uv, conformal_factor(Xn, uv), record
     record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
               "neighbours": settings.neighbours, "faces": mesh.n_faces,
               "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),
               "unmeshed": int((~mesh.main).sum())}
+    if isinstance(domain, Disk):
+        uv = np.asarray(domain.center) + domain.radius * conformal_disk(Xn, mesh, uv)
+        record.update(onto=domain.spec, seconds=time.perf_counter() - t0)
+        return uv, conformal_factor(Xn, uv), record
+    lam_inv = conformal_factor(Xn, uv)
     if settings.refine_steps > 0:
         gen = torch.Generator(device="cpu")
         gen.manual_seed(seed)
@@ -124,6 +119,6 @@ def localmesh_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfi
         )
         uv, lam_inv = U.cpu().double().numpy(), lam.cpu().double().numpy()
         record["refine_steps"] = settings.refine_steps
-        record.update({k: v for k, v in refined.items() if k.startswith("loss")})
+        record.update({k: refined[k] for k in LOSS_TERMS if k in refined})
     record["seconds"] = time.perf_counter() - t0
     return uv, lam_inv, record
