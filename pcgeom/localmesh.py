@@ -67,6 +67,9 @@ class LocalMesh:
         return self.boundary_edges < 0.5 * np.sqrt(len(self.main))
 
 
+_MERGE_CHUNK = 100_000
+"""Candidate triangles turned into Python lists at a time by the merge."""
+
 _MIN_QUALITY = 1e-4
 """Triangles of worse shape quality (1: equilateral, 0: degenerate) are never kept."""
 
@@ -158,11 +161,13 @@ def _stars(X: np.ndarray, normals: np.ndarray, nb: np.ndarray, idx: np.ndarray) 
     return np.column_stack([idx[r], js[r, c], js[r, ni[r, c]]])
 
 
-def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray) -> np.ndarray:
-    """Greedy edge-manifold, consistently oriented union of the fans' triangles."""
+def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray
+           ) -> tuple[np.ndarray, int]:
+    """Greedy edge-manifold, consistently oriented union of the fans' triangles, and the
+    number of distinct candidates."""
     tris, votes = np.unique(np.sort(candidates, axis=1), axis=0, return_counts=True)
     if len(tris) == 0:
-        return tris
+        return tris, 0
     cross = np.cross(X[tris[:, 1]] - X[tris[:, 0]], X[tris[:, 2]] - X[tris[:, 0]])
     flip = np.einsum("md,md->m", cross, normals[tris].sum(axis=1)) < 0
     tris[flip] = tris[flip][:, [0, 2, 1]]
@@ -172,20 +177,24 @@ def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray) -> np.nda
     # Slivers (collinear points, as on a regular grid) make the cotangent weights blow up.
     order = np.lexsort((-quality, -votes))
     order = order[quality[order] > _MIN_QUALITY]
-    directed: set[tuple[int, int]] = set()
-    uses: dict[tuple[int, int], int] = {}
+    # Edges as integer keys (a * n + b): a third of the memory of tuples at 1M points.
+    n = int(tris.max()) + 1
+    directed: set[int] = set()
+    uses: dict[int, int] = {}
     keep = []
-    for t in order.tolist():
-        a, b, c = tris[t].tolist()
-        edges = ((a, b), (b, c), (c, a))
-        if any(e in directed or uses.get((min(e), max(e)), 0) >= 2 for e in edges):
-            continue
-        keep.append(t)
-        for e in edges:
-            directed.add(e)
-            key = (min(e), max(e))
-            uses[key] = uses.get(key, 0) + 1
-    return tris[np.sort(np.asarray(keep, dtype=np.int64))]
+    for start in range(0, len(order), _MERGE_CHUNK):
+        block = order[start:start + _MERGE_CHUNK]
+        for t, (a, b, c) in zip(block.tolist(), tris[block].tolist()):
+            edges = ((a, b), (b, c), (c, a))
+            if any(x * n + y in directed or uses.get(min(x, y) * n + max(x, y), 0) >= 2
+                   for x, y in edges):
+                continue
+            keep.append(t)
+            for x, y in edges:
+                directed.add(x * n + y)
+                key = min(x, y) * n + max(x, y)
+                uses[key] = uses.get(key, 0) + 1
+    return tris[np.sort(np.asarray(keep, dtype=np.int64))], len(tris)
 
 
 def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
@@ -213,7 +222,8 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     n = len(X)
     kept = np.arange(n) if exclude is None else np.flatnonzero(~np.asarray(exclude, bool))
     candidates = kept[_fans(X[kept], normals[kept], neighbours, progress)]
-    faces = _merge(X, normals, candidates)
+    faces, n_candidates = _merge(X, normals, candidates)
+    del candidates
     main = np.zeros(n, dtype=bool)
     boundary = 0
     if len(faces):
@@ -227,8 +237,7 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
         edges = np.sort(np.stack([faces.ravel(), ring.ravel()], axis=1), axis=1)
         _, count = np.unique(edges, axis=0, return_counts=True)
         boundary = int((count == 1).sum())
-    return LocalMesh(faces=faces, main=main, boundary_edges=boundary,
-                     candidates=len(np.unique(np.sort(candidates, axis=1), axis=0)))
+    return LocalMesh(faces=faces, main=main, boundary_edges=boundary, candidates=n_candidates)
 
 
 def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
@@ -260,8 +269,12 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     fixed = np.array([p0, p1, m + p0, m + p1])
     values = np.array([0.0, 1.0, 0.0, 0.0])
     free = np.setdiff1d(np.arange(2 * m), fixed)
-    rhs = -(Q[free][:, fixed] @ values)
-    z = spsolve(sp.csc_matrix(Q[free][:, free]), rhs)
+    rows = Q[free]
+    del Q, L  # the sparse LU below is the peak of memory at a million points
+    rhs = -(rows[:, fixed] @ values)
+    Q_ff = rows[:, free].tocsc()
+    del rows
+    z = spsolve(Q_ff, rhs)
     if not np.isfinite(z).all():
         raise InputError("the local mesh of the cloud is degenerate (LSCM has no unique "
                          "solution); try more neighbours or the 'networks' preset")
