@@ -15,6 +15,7 @@ from .errors import InputError
 
 __all__ = [
     "find_outliers",
+    "local_pca",
     "surface_variation",
     "validate_normals",
     "validate_points",
@@ -300,16 +301,29 @@ def find_outliers(X, neighbours: int = 16) -> np.ndarray:
     return isolated | (offset > OFFSET_FACTOR * np.median(dist[:, 1]))
 
 
-def surface_variation(X, neighbours: int = 16) -> np.ndarray:
-    """``lambda_0 / (lambda_0 + lambda_1 + lambda_2)`` of each point's neighbourhood (Pauly et
-    al. 2002): 0 on a plane, about 0.3 (up to 1/3) inside a volume."""
+def local_pca(X, neighbours: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Eigen-decomposition of each point's neighbourhood covariance (itself and its
+    ``neighbours`` nearest points).
+
+    Returns
+    -------
+    values : (N, 3) float64
+        Eigenvalues, ascending.
+    vectors : (N, 3, 3) float64
+        Unit eigenvectors as columns; ``vectors[:, :, 0]`` is the (unoriented) normal.
+    """
     from scipy.spatial import cKDTree
 
     X = np.asarray(X, dtype=np.float64)
     k = min(neighbours, len(X) - 1)
     _, nb = cKDTree(X).query(X, k + 1)
     Q = X[nb] - X[nb].mean(axis=1, keepdims=True)
-    values = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", Q, Q))
+    return np.linalg.eigh(np.einsum("nki,nkj->nij", Q, Q))
+
+
+def surface_variation(values: np.ndarray) -> np.ndarray:
+    """``lambda_0 / (lambda_0 + lambda_1 + lambda_2)`` from :func:`local_pca`'s eigenvalues
+    (Pauly et al. 2002): 0 on a plane, about 0.3 (up to 1/3) inside a volume."""
     return values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)
 
 

@@ -205,7 +205,8 @@ class LocalMeshConfig:
     """Nearest neighbours each tangent fan is built from (face_human_choi with its normals:
     0.0403 rad with 12, 0.0276 with 16, 0.0229 with 24, 0.0303 with 32)."""
     normal_neighbours: int = 16
-    """Neighbours of the PCA normal estimate and its orientation, for a cloud without normals."""
+    """Neighbours of the neighbourhood PCA: the surface test (is the cloud a surface?) and, for
+    a cloud without normals, the normal estimate and its orientation."""
     refine_steps: int = 0
     """Steps of the LEG refinement (:class:`RefineConfig`, same-sheet pairs) after LSCM.
     0: none. Measured on face_human_choi from a 0.040 rad local-mesh map: 300 steps raise it to

@@ -197,6 +197,33 @@ def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray
     return tris[np.sort(np.asarray(keep, dtype=np.int64))], len(tris)
 
 
+def _main_part(faces: np.ndarray, n: int) -> np.ndarray:
+    """(n,) bool: the vertices of the largest connected part of ``faces`` (none if empty)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    main = np.zeros(n, dtype=bool)
+    if len(faces):
+        ring = np.roll(faces, 1, axis=1)
+        A = sp.coo_matrix((np.ones(faces.size), (faces.ravel(), ring.ravel())), shape=(n, n))
+        _, label = connected_components(A, directed=False)
+        used = np.zeros(n, dtype=bool)
+        used[faces.ravel()] = True
+        main = used & (label == np.bincount(label[used]).argmax())
+    return main
+
+
+def _submesh(X: np.ndarray, faces: np.ndarray, keep: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The vertices ``keep`` (bool mask) of the mesh, renumbered: their indices, contiguous
+    ``V`` and the faces among them (contiguous, as libigl wants them)."""
+    index = np.flatnonzero(keep)
+    remap = np.full(len(X), -1, dtype=np.int64)
+    remap[index] = np.arange(len(index))
+    F = remap[faces]
+    return index, np.ascontiguousarray(X[index]), np.ascontiguousarray(F[(F >= 0).all(axis=1)])
+
+
 def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
                exclude: np.ndarray | None = None, progress: bool = False) -> LocalMesh:
     """Build the manifold mesh of same-sheet tangent fans (steps 1-3 of the module).
@@ -216,24 +243,16 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     -------
     LocalMesh
     """
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
 
     n = len(X)
     kept = np.arange(n) if exclude is None else np.flatnonzero(~np.asarray(exclude, bool))
     candidates = kept[_fans(X[kept], normals[kept], neighbours, progress)]
     faces, n_candidates = _merge(X, normals, candidates)
     del candidates
-    main = np.zeros(n, dtype=bool)
+    main = _main_part(faces, n)
     boundary = 0
     if len(faces):
         ring = np.roll(faces, 1, axis=1)
-        A = sp.coo_matrix((np.ones(faces.size), (faces.ravel(), ring.ravel())), shape=(n, n))
-        _, label = connected_components(A, directed=False)
-        used = np.zeros(n, dtype=bool)
-        used[faces.ravel()] = True
-        biggest = np.bincount(label[used]).argmax()
-        main = used & (label == biggest)
         edges = np.sort(np.stack([faces.ravel(), ring.ravel()], axis=1), axis=1)
         _, count = np.unique(edges, axis=0, return_counts=True)
         boundary = int((count == 1).sum())
@@ -253,12 +272,7 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     import scipy.sparse as sp
     from scipy.sparse.linalg import spsolve
 
-    main = np.flatnonzero(mesh.main)
-    remap = np.full(len(X), -1, dtype=np.int64)
-    remap[main] = np.arange(len(main))
-    F = remap[mesh.faces]
-    F = np.ascontiguousarray(F[(F >= 0).all(axis=1)])
-    V = np.ascontiguousarray(X[main])
+    main, V, F = _submesh(X, mesh.faces, mesh.main)
     m = len(V)
     # Conformal energy 1/2 u^T (-L (+) -L) u - u^T A u, libigl's LSCM quadratic form.
     L = igl.cotmatrix(V, F)
@@ -432,23 +446,12 @@ def conformal_disk(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> np.nd
     """
     import igl
     import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
     from scipy.sparse.linalg import spsolve
     from scipy.spatial import cKDTree
 
     n_all = len(X)
     faces = _vertex_manifold(mesh.faces)
-    ring = np.roll(faces, 1, axis=1)
-    A = sp.coo_matrix((np.ones(faces.size), (faces.ravel(), ring.ravel())), shape=(n_all,) * 2)
-    _, label = connected_components(A, directed=False)
-    used = np.zeros(n_all, dtype=bool)
-    used[faces.ravel()] = True
-    main = np.flatnonzero(used & (label == np.bincount(label[used]).argmax()))
-    remap = np.full(n_all, -1, dtype=np.int64)
-    remap[main] = np.arange(len(main))
-    F = remap[faces]
-    F = np.ascontiguousarray(F[(F >= 0).all(axis=1)])
-    V = np.ascontiguousarray(X[main])
+    main, V, F = _submesh(X, faces, _main_part(faces, n_all))
     P = free_uv[main]
     n = len(V)
 

@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .cloud import local_pca
+
 __all__ = ["estimate_normals", "orient_normals"]
 
 
@@ -42,13 +44,7 @@ def estimate_normals(X: np.ndarray, neighbours: int = 16) -> np.ndarray:
     (N, 3) float64
         Unit normals, sign arbitrary.
     """
-    from scipy.spatial import cKDTree
-
-    k = min(neighbours, len(X) - 1)
-    _, nb = cKDTree(X).query(X, k + 1)
-    P = X[nb] - X[nb].mean(axis=1, keepdims=True)  # (N, k + 1, 3)
-    C = np.einsum("nki,nkj->nij", P, P)
-    _, vectors = np.linalg.eigh(C)  # eigenvalues ascending
+    _, vectors = local_pca(X, neighbours)
     return np.ascontiguousarray(vectors[:, :, 0])
 
 

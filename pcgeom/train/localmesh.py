@@ -9,12 +9,12 @@ import time
 import numpy as np
 import torch
 
-from ..cloud import find_outliers, surface_variation
+from ..cloud import find_outliers, local_pca, surface_variation
 from ..config import ParamConfig
 from ..domains import Disk, Domain
 from ..errors import InputError
 from ..localmesh import conformal_disk, conformal_factor, local_mesh, lscm_free
-from ..normals import estimate_normals, orient_normals
+from ..normals import orient_normals
 from .data import TrainData
 from .objective import LOSS_TERMS, Objective
 from .refine import refine
@@ -78,15 +78,16 @@ def localmesh_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfi
     settings = config.local_mesh
     outlier = find_outliers(Xn)
     inliers = np.flatnonzero(~outlier)
-    if np.median(surface_variation(Xn[inliers])) > MAX_VARIATION:
+    # One neighbourhood PCA serves the surface test and, without normals, their estimate.
+    values, vectors = local_pca(Xn[inliers], settings.normal_neighbours)
+    if np.median(surface_variation(values)) > MAX_VARIATION:
         raise InputError(NOT_A_SURFACE)
     source = "input"
     if normals is None:
         source = "estimated"
         normals = np.zeros_like(Xn)  # outliers' rows stay zero: no pair and no fan uses them
-        normals[inliers] = orient_normals(
-            Xn[inliers], estimate_normals(Xn[inliers], settings.normal_neighbours),
-            settings.normal_neighbours)
+        normals[inliers] = orient_normals(Xn[inliers], np.ascontiguousarray(vectors[:, :, 0]),
+                                          settings.normal_neighbours)
     mesh = local_mesh(Xn, normals, settings.neighbours, exclude=outlier, progress=progress)
     meshed = float(mesh.main.mean())
     if meshed < MIN_MESHED:
