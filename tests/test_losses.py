@@ -10,6 +10,7 @@ backend tables (``LEG_BACKENDS``, ``HAND_BACKENDS``) is checked against the dens
 
 from __future__ import annotations
 
+import importlib
 import math
 
 import numpy as np
@@ -22,9 +23,12 @@ from pcgeom.losses import (
     LEG_BACKENDS,
     boltzmann,
     hand,
+    hand_chunked,
     hand_dense,
+    hand_knn,
     landmark_hand,
     leg,
+    leg_chunked,
     leg_dense,
     leg_pairs,
     modified_hausdorff,
@@ -373,8 +377,8 @@ def _all_ordered_pairs(n: int) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def test_leg_backend_table():
-    assert LEG_BACKENDS == {"dense": leg_dense, "pairs": leg_pairs}
-    assert HAND_BACKENDS == {"dense": hand_dense}
+    assert LEG_BACKENDS == {"dense": leg_dense, "chunked": leg_chunked, "pairs": leg_pairs}
+    assert HAND_BACKENDS == {"dense": hand_dense, "chunked": hand_chunked, "knn": hand_knn}
 
 
 def test_leg_auto_picks_pairs_when_given_and_dense_otherwise():
@@ -411,19 +415,28 @@ def test_leg_pairs_backend_with_all_pairs_equals_dense_value_and_gradient():
         torch.testing.assert_close(got, want, rtol=1e-12, atol=1e-15)
 
 
-_DENSE_TAKES_NO_PAIRS = r"^leg: the 'dense' backend uses all pairs; do not pass pairs or weight$"
+_DENSE_TAKES_NO_PAIRS = r"^leg: the 'dense' backend uses all pairs; do not pass pairs$"
 
 
 @pytest.mark.parametrize(
     "kwargs, match",
     [
         (lambda n: {"backend": "keops"},
-         r"^leg: unknown backend 'keops'; choose one of: auto, dense, pairs$"),
+         r"^leg: unknown backend 'keops'; choose one of: auto, dense, chunked, pairs$"),
         (lambda n: {"backend": "pairs"}, r"^leg: the 'pairs' backend needs pairs=\(i, j\)$"),
         (lambda n: {"backend": "dense", "pairs": _all_ordered_pairs(n)}, _DENSE_TAKES_NO_PAIRS),
-        (lambda n: {"weight": torch.ones(n * n, dtype=DTYPE)}, _DENSE_TAKES_NO_PAIRS),
+        (lambda n: {"weight": torch.ones(n * n, dtype=DTYPE)},
+         r"^leg: the 'dense' backend takes a weight of shape \(N, N\) = \(7, 7\), got \(49,\)$"),
+        (lambda n: {"backend": "chunked", "pairs": _all_ordered_pairs(n)},
+         r"^leg: the 'chunked' backend uses all pairs; do not pass pairs$"),
+        (lambda n: {"backend": "chunked", "weight": torch.ones(n, n + 1, dtype=DTYPE)},
+         r"^leg: the 'chunked' backend takes a weight of shape \(N, N\) = \(7, 7\), "
+         r"got \(7, 8\)$"),
+        (lambda n: {"pairs": _all_ordered_pairs(n), "weight": torch.ones(n, n, dtype=DTYPE)},
+         r"^leg: the 'pairs' backend takes a weight of shape \(P,\) = \(49,\), got \(7, 7\)$"),
     ],
-    ids=["unknown", "pairs-without-pairs", "dense-with-pairs", "auto-with-only-weight"],
+    ids=["unknown", "pairs-without-pairs", "dense-with-pairs", "auto-with-a-flat-weight",
+         "chunked-with-pairs", "chunked-weight-shape", "pairs-weight-shape"],
 )
 def test_leg_backend_errors(kwargs, match):
     X, Y, l = (_t(a) for a in _leg_problem(37))
@@ -438,9 +451,161 @@ def test_hand_dispatch():
     assert hand(Y, W, 5.0).item() == dense.item()
     assert hand(Y, W, 5.0, backend="auto").item() == dense.item()
     assert hand(Y, W, 5.0, backend="dense").item() == dense.item()
-    match = r"^hand: unknown backend 'pairs'; choose one of: auto, dense$"
+    match = r"^hand: unknown backend 'pairs'; choose one of: auto, dense, chunked, knn$"
     with pytest.raises(ValueError, match=match):
         hand(Y, W, 5.0, backend="pairs")
+
+
+def _value_and_grads(fn, *inputs):
+    """``fn(*inputs)`` and its gradient with respect to each input (float64 copies)."""
+    leaves = [x.detach().clone().requires_grad_(True) for x in inputs]
+    value = fn(*leaves)
+    return (value.detach(), *torch.autograd.grad(value, leaves))
+
+
+def _assert_same_value_and_grads(got, want, *, rtol=1e-12, atol=1e-14):
+    assert want[0].abs().item() > 1e-4  # a non-trivial value
+    assert all(g.abs().max().item() > 1e-6 for g in want[1:])  # and non-trivial gradients
+    for a, b in zip(got, want):
+        torch.testing.assert_close(a, b, rtol=rtol, atol=atol)
+
+
+@pytest.mark.parametrize("block", [1, 3, 7, 40])  # one row per block, uneven, exact, all rows
+@pytest.mark.parametrize("weighted", [False, True])
+def test_leg_chunked_equals_dense_value_and_gradients(block, weighted):
+    X, Y, l = (_t(a) for a in _leg_problem(39, n=20))
+    w = _t(_rng(40).uniform(size=(20, 20)) > 0.3) if weighted else None
+    want = _value_and_grads(lambda y, li: leg_dense(X, y, li, 0.8, weight=w), Y, l)
+    got = _value_and_grads(lambda y, li: leg_chunked(X, y, li, 0.8, weight=w, block=block), Y, l)
+    _assert_same_value_and_grads(got, want)
+
+
+def test_leg_weight_is_a_weighted_mean_and_a_zero_weight_drops_the_pair():
+    X, Y, l = (_t(a) for a in _leg_problem(41, n=9))
+    w = _t(_rng(42).uniform(0.0, 2.0, size=(9, 9)))
+    w[2, :] = 0.0  # row 2 is dropped: moving y_2 alone must not change the energy
+    i, j = _all_ordered_pairs(9)
+    want = leg_pairs(X, Y, l, 0.8, i, j, weight=w.reshape(-1))
+    for backend in ("dense", "chunked"):
+        got = leg(X, Y, l, 0.8, weight=w, backend=backend)
+        torch.testing.assert_close(got, want, rtol=1e-12, atol=0)
+    w[:, 2] = 0.0
+    moved = Y.clone()
+    moved[2] += 5.0
+    assert leg(X, moved, l, 0.8, weight=w).item() == pytest.approx(leg(X, Y, l, 0.8, weight=w).item(),
+                                                                   rel=1e-12)
+
+
+def test_leg_auto_is_dense_up_to_the_threshold_and_chunked_above(monkeypatch):
+    leg_module = importlib.import_module("pcgeom.losses.leg")
+
+    X, Y, l = (_t(a) for a in _leg_problem(43, n=10))
+    calls = []
+    monkeypatch.setitem(leg_module.LEG_BACKENDS, "dense",
+                        lambda *a, **kw: calls.append("dense") or leg_dense(*a, **kw))
+    monkeypatch.setitem(leg_module.LEG_BACKENDS, "chunked",
+                        lambda *a, **kw: calls.append("chunked") or leg_chunked(*a, **kw))
+    monkeypatch.setattr(leg_module, "DENSE_MAX_PAIRS", 100)
+    leg(X, Y, l, 0.8)
+    monkeypatch.setattr(leg_module, "DENSE_MAX_PAIRS", 99)
+    leg(X, Y, l, 0.8)
+    assert calls == ["dense", "chunked"]
+    assert leg_module.DENSE_MAX_PAIRS == 99 and 5809**2 <= 1 << 26  # the paper's stages stay dense
+
+
+def test_gradcheck_leg_chunked():
+    X, Y, l = _leg_problem(44, n=6)
+    X, Y, l = _t(X), _t(Y).requires_grad_(True), _t(l).requires_grad_(True)
+    w = _t(_rng(45).uniform(size=(6, 6)) > 0.4)
+    assert torch.autograd.gradcheck(lambda y, li: leg_chunked(X, y, li, 1.5, block=4), (Y, l))
+    assert torch.autograd.gradcheck(lambda y, li: leg_chunked(X, y, li, 1.5, weight=w, block=4),
+                                    (Y, l))
+
+
+def _hand_problem(seed: int, n: int = 23, m: int = 31):
+    rng = _rng(seed)
+    return _t(rng.uniform(-1, 1, size=(n, 2))), _t(rng.uniform(-1, 1, size=(m, 2)))
+
+
+@pytest.mark.parametrize("alpha", [2.0, 20.0, 100.0])
+@pytest.mark.parametrize("block", [1, 4, 23])
+def test_hand_chunked_equals_dense_value_and_gradients(alpha, block):
+    Y, W = _hand_problem(46)
+    want = _value_and_grads(lambda y, w: hand_dense(y, w, alpha), Y, W)
+    got = _value_and_grads(lambda y, w: hand_chunked(y, w, alpha, block=block), Y, W)
+    _assert_same_value_and_grads(got, want, rtol=1e-10, atol=1e-12)
+
+
+def test_hand_chunked_is_stable_where_a_block_is_far_from_every_target():
+    # alpha * d of about 2000: an unshifted exp(-alpha d) underflows to 0 in every block
+    Y, W = _hand_problem(47)
+    Y = Y + 20.0
+    want = _value_and_grads(lambda y: hand_dense(y, W, 100.0), Y)
+    got = _value_and_grads(lambda y: hand_chunked(y, W, 100.0, block=5), Y)
+    assert torch.isfinite(got[0]) and torch.isfinite(got[1]).all()
+    _assert_same_value_and_grads(got, want, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("alpha", [2.0, 20.0, 100.0])
+def test_hand_knn_with_all_candidates_equals_dense(alpha):
+    Y, W = _hand_problem(48)
+    want = _value_and_grads(lambda y, w: hand_dense(y, w, alpha), Y, W)
+    for k in (31, 100):  # k = M (> N), and k beyond both sizes (clamped)
+        got = _value_and_grads(lambda y, w: hand_knn(y, w, alpha, k=k), Y, W)
+        _assert_same_value_and_grads(got, want, rtol=1e-12, atol=1e-14)
+
+
+def test_hand_knn_with_few_neighbours_is_close_to_dense_at_large_alpha():
+    # A mapped cloud and a domain sample like a refinement step's, scaled down (spacing of W
+    # about 0.12).
+    rng = _rng(49)
+    Y = _t(rng.uniform(-1, 1, size=(600, 2)))
+    W = _t(rng.uniform(-1, 1, size=(256, 2)))
+
+    def errors(alpha, k):
+        want = _value_and_grads(lambda y: hand_dense(y, W, alpha), Y)
+        got = _value_and_grads(lambda y: hand_knn(y, W, alpha, k=k), Y)
+        return (abs(got[0].item() - want[0].item()) / want[0].item(),
+                ((got[1] - want[1]).norm() / want[1].norm()).item())
+
+    # Measured (value, gradient relative errors): alpha 100: k=4 (5e-4, 3e-2),
+    # k=8 (4e-4, 3e-3), k=16 (2e-5, 2e-4); alpha 20, k=8: (0.19, 0.35).
+    at100 = {k: errors(100.0, k) for k in (4, 8, 16)}
+    assert at100[8][0] < 1e-3 and at100[8][1] < 1e-2
+    assert at100[16][0] < at100[8][0] < at100[4][0] and at100[16][1] < at100[8][1] < at100[4][1]
+    assert errors(20.0, 8)[0] > 10 * at100[8][0]  # an approximation that needs a sharp alpha
+
+
+def test_hand_auto_is_dense_up_to_the_threshold_and_chunked_above(monkeypatch):
+    hand_module = importlib.import_module("pcgeom.losses.hand")
+
+    Y, W = _hand_problem(50, n=5, m=6)
+    calls = []
+    monkeypatch.setitem(hand_module.HAND_BACKENDS, "dense",
+                        lambda *a: calls.append("dense") or hand_dense(*a))
+    monkeypatch.setitem(hand_module.HAND_BACKENDS, "chunked",
+                        lambda *a: calls.append("chunked") or hand_chunked(*a))
+    monkeypatch.setattr(hand_module, "DENSE_MAX_PAIRS", 30)
+    hand(Y, W, 5.0)
+    monkeypatch.setattr(hand_module, "DENSE_MAX_PAIRS", 29)
+    hand(Y, W, 5.0)
+    assert calls == ["dense", "chunked"]  # never knn unless asked
+    assert hand(Y, W, 5.0, backend="knn", k=6).item() == pytest.approx(hand_dense(Y, W, 5.0).item(),
+                                                                       rel=1e-12)
+
+
+@pytest.mark.parametrize("k", [0, 2.5, True])
+def test_hand_knn_rejects_a_bad_k(k):
+    Y, W = _hand_problem(51, n=5, m=6)
+    with pytest.raises(ValueError, match=r"^hand: the 'knn' backend needs an int k >= 1, got "):
+        hand(Y, W, 5.0, backend="knn", k=k)
+
+
+def test_gradcheck_hand_chunked_and_knn():
+    Y, W = _hand_problem(52, n=6, m=9)
+    Y, W = Y.requires_grad_(True), W.requires_grad_(True)
+    assert torch.autograd.gradcheck(lambda y, w: hand_chunked(y, w, 5.0, block=4), (Y, W))
+    assert torch.autograd.gradcheck(lambda y, w: hand_knn(y, w, 5.0, k=3), (Y, W))
 
 
 # =========================================================================== #

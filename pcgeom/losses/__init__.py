@@ -6,20 +6,24 @@ meshing library.
 """
 
 from .boltzmann import boltzmann
-from .hand import HAND_BACKENDS, hand, hand_dense, modified_hausdorff, pairwise_distances
+from .hand import (HAND_BACKENDS, hand, hand_chunked, hand_dense, hand_knn, modified_hausdorff,
+                   pairwise_distances)
 from .landmarks import landmark_hand
-from .leg import LEG_BACKENDS, leg, leg_dense, leg_pairs
+from .leg import LEG_BACKENDS, leg, leg_chunked, leg_dense, leg_pairs
 
 __all__ = [
     "boltzmann",
     "hand",
     "hand_dense",
+    "hand_chunked",
+    "hand_knn",
     "HAND_BACKENDS",
     "modified_hausdorff",
     "pairwise_distances",
     "landmark_hand",
     "leg",
     "leg_dense",
+    "leg_chunked",
     "leg_pairs",
     "LEG_BACKENDS",
 ]
