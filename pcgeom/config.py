@@ -34,6 +34,7 @@ __all__ = [
 OPTIMIZERS = ("rmsprop", "adam")
 DTYPES = ("float32", "float64")
 INIT_MAPS = ("random", "plane")
+REFINE_HAND_BACKENDS = ("auto", "dense", "chunked", "knn")
 FREE_MAPS = ("networks", "localmesh")
 DISK_MAPS = ("networks", "localmesh")
 NET_INITS = ("siren", "default")
@@ -111,10 +112,22 @@ class ScheduleConfig:
     """Upper bound on alpha_final (line 16)."""
     epochs_min: int = 1000
     """Lower bound on E (line 17)."""
+    max_steps_per_epoch: int = 0
+    """Cap on the mini-batches per epoch (not in the paper; 0: no cap, Algorithm 1's
+    ceil(|X| / B_X), so a stage's time grows linearly with |X|). With a cap the networks learn
+    the smooth map from a sample of the cloud each epoch."""
+    drop_cross_sheet: bool = False
+    """When the cloud has oriented normals, give the LEG pairs whose normals disagree
+    (``n_i . n_j <= 0``: the two sheets of a surface that doubles back) weight 0 in the
+    network stages (not in the paper: False)."""
 
     def __post_init__(self) -> None:
         for name in ("epochs", "batch_points", "batch_domain", "epochs_min"):
             _count("ScheduleConfig", name, getattr(self, name))
+        _count("ScheduleConfig", "max_steps_per_epoch", self.max_steps_per_epoch, allow_zero=True)
+        if not isinstance(self.drop_cross_sheet, bool):
+            raise InputError(f"ScheduleConfig.drop_cross_sheet: expected a bool, "
+                             f"got {type(self.drop_cross_sheet).__name__}")
         for name in ("sigma", "alpha_initial", "alpha_final", "sigma_min", "alpha_max"):
             _positive("ScheduleConfig", name, getattr(self, name))
 
@@ -184,11 +197,20 @@ class RefineConfig:
     """Domain samples per HAND evaluation during refinement (against all points)."""
     alpha: float = 100.0
     """HAND sharpness during refinement."""
+    hand_backend: str = "auto"
+    """HAND of all points against the domain batch (:data:`pcgeom.losses.HAND_BACKENDS`):
+    ``"auto"`` is ``"dense"`` while N x batch_domain is small
+    (:data:`pcgeom.train.refine.DENSE_HAND_MAX`) and the O(N) ``"knn"`` above; or a backend
+    by name."""
+    hand_neighbours: int = 8
+    """k of the ``"knn"`` HAND: candidates per soft-min."""
 
     def __post_init__(self) -> None:
         _count("RefineConfig", "steps", self.steps, allow_zero=True)
         _count("RefineConfig", "neighbours", self.neighbours)
         _count("RefineConfig", "batch_domain", self.batch_domain)
+        _choice("RefineConfig", "hand_backend", self.hand_backend, REFINE_HAND_BACKENDS)
+        _count("RefineConfig", "hand_neighbours", self.hand_neighbours)
         for name in ("sigma_spacing", "lr_spacing", "lr_lambda", "alpha"):
             _positive("RefineConfig", name, getattr(self, name))
 
@@ -326,8 +348,11 @@ def config_from_dict(cls, data: dict, where: str | None = None):
 
 
 _FAST_NETWORKS = ParamConfig(
+    # At most 8 steps per epoch: the three peaks (5776 points: 6 and 3 steps) train as before,
+    # a 100k-point cloud no longer takes 98 steps per epoch. Pairs across sheets are dropped
+    # from LEG when the cloud has normals.
     schedule=ScheduleConfig(epochs=120, sigma=0.5, alpha_initial=2.0, alpha_final=20.0,
-                            epochs_min=30),
+                            epochs_min=30, max_steps_per_epoch=8, drop_cross_sheet=True),
     optimizer=OptimizerConfig(name="adam", lr=1e-3),
     param_net=NetConfig(width=128, depth=3, init="siren", w0=5.0),
     lambda_net=NetConfig(width=64, depth=2, init="siren", w0=5.0),

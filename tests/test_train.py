@@ -736,3 +736,169 @@ def test_parametrize_rejects_bad_points_before_any_work(points, message, monkeyp
                         lambda *a, **k: pytest.fail("training started"))
     with pytest.raises(InputError, match=message):
         parametrize(points, progress=False)
+
+
+# --------------------------------------------------------------------------- step cap (issue 15)
+
+
+def test_step_cap_caps_large_clouds_and_leaves_the_three_peaks_and_the_paper_alone():
+    networks = get_preset("networks").schedule
+    assert networks.max_steps_per_epoch == 8 and get_preset("fast").schedule == networks
+    # 100k points: ceil(100000 / 1024) = 98 and ceil(100000 / 2048) = 49 steps, capped to 8.
+    big = stage_plan(100_000, 8192, networks, max_stages=2)
+    assert [s.steps_per_epoch for s in big] == [8, 8]
+    # The three peaks (5776 points) keep 6 and 3 steps: the same plan as without the cap.
+    uncapped = dataclasses.replace(networks, max_steps_per_epoch=0)
+    peaks_plan = stage_plan(5776, 8192, networks, max_stages=2)
+    assert [s.steps_per_epoch for s in peaks_plan] == [6, 3]
+    assert peaks_plan == stage_plan(5776, 8192, uncapped, max_stages=2)
+    # The paper: no cap, Algorithm 1's ceil(|X| / B_X) at any size.
+    paper = get_preset("paper").schedule
+    assert paper.max_steps_per_epoch == 0 and ScheduleConfig().max_steps_per_epoch == 0
+    assert [s.steps_per_epoch for s in stage_plan(100_000, 8192, paper)] == [
+        math.ceil(100_000 / s.batch_points) for s in stage_plan(100_000, 8192, paper)]
+
+
+def test_a_capped_stage_runs_the_capped_number_of_steps(peaks):
+    V, _ = peaks  # 576 points in batches of 64: 9 steps per epoch, capped to 3
+    cfg = _tiny(schedule=ScheduleConfig(epochs=4, epochs_min=2, batch_points=64, batch_domain=64,
+                                        max_steps_per_epoch=3),
+                max_stages=1, refine=RefineConfig(steps=0))
+    res = parametrize(V, "free", config=cfg, device="cpu", progress=False)
+    assert res.history[0]["steps"] == 4 * 3
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda: ScheduleConfig(max_steps_per_epoch=-1),
+         r"^ScheduleConfig\.max_steps_per_epoch: expected an int >= 0, got -1$"),
+        (lambda: ScheduleConfig(drop_cross_sheet=1),
+         r"^ScheduleConfig\.drop_cross_sheet: expected a bool, got int$"),
+        (lambda: RefineConfig(hand_backend="keops"),
+         r"^RefineConfig\.hand_backend: unknown value 'keops'; choose one of: auto, dense, "
+         r"chunked, knn$"),
+        (lambda: RefineConfig(hand_neighbours=0),
+         r"^RefineConfig\.hand_neighbours: expected an int >= 1, got 0$"),
+    ],
+    ids=["negative-cap", "non-bool-drop", "unknown-hand-backend", "zero-neighbours"],
+)
+def test_new_schedule_and_refine_fields_are_validated(make, message):
+    with pytest.raises(InputError, match=message):
+        make()
+
+
+# --------------------------------------------------------------------------- normals in the networks
+
+
+def _two_sheets(n_per_sheet: int = 200, gap: float = 0.02):
+    """A flat sheet and the one folded back over it, ``gap`` apart, with outward normals."""
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(-1, 1, size=(n_per_sheet, 2))
+    P = np.r_[np.c_[xy, np.zeros(n_per_sheet)], np.c_[xy[::-1], np.full(n_per_sheet, gap)]]
+    N = np.r_[np.tile([0.0, 0.0, -1.0], (n_per_sheet, 1)), np.tile([0.0, 0.0, 1.0],
+                                                                  (n_per_sheet, 1))]
+    return P, N
+
+
+def test_same_sheet_weight_is_zero_exactly_for_pairs_whose_normals_disagree():
+    rng = np.random.default_rng(4)
+    normals = rng.normal(size=(30, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    data = TrainData(torch.tensor(rng.normal(size=(30, 3))), None, [], [], torch.Generator(),
+                     torch.tensor(normals))
+    idx = torch.tensor([3, 7, 0, 29, 12])
+    w = data.same_sheet_weight(idx, extra=2)  # two landmark rows at the tail
+    assert w.shape == (7, 7) and w.dtype == data.X.dtype
+    for a in range(7):
+        for b in range(7):
+            if a >= 5 or b >= 5:
+                assert w[a, b] == 1.0  # landmarks have no normals: kept
+            else:
+                keep = float(normals[idx[a]] @ normals[idx[b]] > 0)
+                assert w[a, b] == keep
+    assert 0 < (w[:5, :5] == 0).sum() < 25  # both kinds of pairs occur
+    assert TrainData(data.X, None, [], [], torch.Generator()).same_sheet_weight(idx) is None
+
+
+def _leg_weights_seen(monkeypatch) -> list:
+    """Patch the objective's LEG to record the weight each network step passes."""
+    objective_module = importlib.import_module("pcgeom.train.objective")
+    seen = []
+    real = objective_module.leg
+
+    def spy(X, Y, lam_inv, sigma, *, pairs=None, weight=None, backend="auto"):
+        if pairs is None:  # the network stages (the refinement lists its pairs)
+            seen.append(None if weight is None else weight.detach().clone())
+        return real(X, Y, lam_inv, sigma, pairs=pairs, weight=weight, backend=backend)
+
+    monkeypatch.setattr(objective_module, "leg", spy)
+    return seen
+
+
+@pytest.mark.parametrize("drop", [True, False])
+def test_network_stages_drop_cross_sheet_pairs_when_normals_are_given(monkeypatch, drop):
+    P, N = _two_sheets()
+    seen = _leg_weights_seen(monkeypatch)
+    cfg = _tiny(schedule=ScheduleConfig(epochs=2, epochs_min=1, batch_points=64, batch_domain=64,
+                                        drop_cross_sheet=drop),
+                max_stages=2, refine=RefineConfig(steps=0))
+    res = parametrize(P, "free", config=cfg, device="cpu", progress=False, normals=N)
+    assert [r["same_sheet_pairs"] for r in res.history] == [drop, drop]
+    assert len(seen) == sum(r["steps"] for r in res.history)
+    if not drop:
+        assert all(w is None for w in seen)
+        return
+    for w in seen:
+        # Each batch mixes both sheets: the cross pairs (half of them, about) get weight 0.
+        assert set(torch.unique(w).tolist()) == {0.0, 1.0}
+        assert 0.3 < float(w.mean()) < 0.7
+        assert torch.equal(w, w.T) and bool((torch.diagonal(w) == 1).all())
+
+
+def test_network_stages_without_normals_use_all_pairs(monkeypatch):
+    P, _ = _two_sheets()
+    seen = _leg_weights_seen(monkeypatch)
+    cfg = _tiny(max_stages=1, refine=RefineConfig(steps=0))
+    assert cfg.schedule.drop_cross_sheet is False and get_preset("networks").schedule.drop_cross_sheet
+    cfg = dataclasses.replace(cfg, schedule=dataclasses.replace(cfg.schedule, drop_cross_sheet=True))
+    parametrize(P, "free", config=cfg, device="cpu", progress=False)
+    assert seen and all(w is None for w in seen)
+
+
+# --------------------------------------------------------------------------- refinement HAND backend
+
+
+def test_refine_hand_backend_auto_is_dense_for_small_runs_and_knn_above():
+    refine_module = importlib.import_module("pcgeom.train.refine")
+    auto = RefineConfig()
+    assert auto.hand_backend == "auto" and get_preset("paper").refine.hand_backend == "auto"
+    limit = refine_module.DENSE_HAND_MAX
+    assert refine_module.refine_hand_backend(auto, 5776, 1024) == "dense"  # the three peaks
+    assert refine_module.refine_hand_backend(auto, limit // 1024, 1024) == "dense"
+    assert refine_module.refine_hand_backend(auto, limit // 1024 + 1, 1024) == "knn"
+    for name in ("dense", "chunked", "knn"):
+        assert refine_module.refine_hand_backend(RefineConfig(hand_backend=name), 10**6,
+                                                 1024) == name
+
+
+@pytest.mark.parametrize("backend", ["knn", "chunked"])
+def test_refinement_uses_its_hand_backend(peaks, monkeypatch, backend):
+    V, _ = peaks
+    objective_module = importlib.import_module("pcgeom.train.objective")
+    calls = []
+    real = objective_module.hand
+
+    def spy(Y, W, alpha, *, backend="auto", k=8):
+        calls.append((len(Y), backend, k))
+        return real(Y, W, alpha, backend=backend, k=k)
+
+    monkeypatch.setattr(objective_module, "hand", spy)
+    cfg = _tiny(refine=RefineConfig(steps=5, batch_domain=256, hand_backend=backend,
+                                    hand_neighbours=4))
+    res = parametrize(V, Disk(), config=cfg, device="cpu", progress=False)
+    assert res.history[-1]["hand_backend"] == backend
+    refine_calls = [c for c in calls if c[0] == len(V)]  # all points: the refinement
+    assert refine_calls == [(len(V), backend, 4)] * 5
+    assert {c[1] for c in calls if c[0] != len(V)} == {"auto"}  # network batches: the default
+    assert np.isfinite(res.uv).all()

@@ -82,6 +82,8 @@ def run_network_stage(stage: Stage, nets: Networks, data: TrainData, objective: 
     ends = np.cumsum([0] + [len(p) for p in data.landmark_points]) + stage.batch_points
     tail = [torch.arange(a, b, device=data.X.device) for a, b in zip(ends[:-1], ends[1:])]
     log = StageLog(stage.epochs, f"stage {stage.index + 1}/{n_stages}", progress)
+    n_landmarks = int(ends[-1]) - stage.batch_points
+    mask = stage.drop_cross_sheet and data.normals is not None
     n_steps = 0
     for epoch in range(stage.epochs):
         alpha = stage.alpha(epoch)
@@ -91,6 +93,7 @@ def run_network_stage(stage: Stage, nets: Networks, data: TrainData, objective: 
             yb = f(xb)
             batch = Batch(
                 X=xb, Y=yb, lam_inv=lam(xb), sigma=stage.sigma, alpha=alpha,
+                leg_weight=data.same_sheet_weight(idx, n_landmarks) if mask else None,
                 W=data.domain_batch(stage.batch_domain), domain_rows=stage.batch_points,
                 landmark_index=tail,
             )
@@ -102,6 +105,7 @@ def run_network_stage(stage: Stage, nets: Networks, data: TrainData, objective: 
         stage=stage.index + 1, kind="network", epochs=stage.epochs, steps=n_steps,
         sigma=stage.sigma, alpha_initial=stage.alpha_initial, alpha_final=stage.alpha_final,
         batch_points=stage.batch_points, batch_domain=stage.batch_domain,
+        same_sheet_pairs=bool(mask),
     )
     if data.landmark_points:
         with torch.no_grad():

@@ -44,10 +44,17 @@ class Batch:
     """HAND sharpness (domain and landmark terms)."""
     pairs: tuple[torch.Tensor, torch.Tensor] | None = None
     """LEG pairs (i, j) into the rows of X; None: all pairs (dense)."""
+    leg_weight: torch.Tensor | None = None
+    """LEG pair weights: (P,) with ``pairs``, else (B, B) (e.g. 0 for the pairs whose normals
+    disagree); None: unit weights."""
     W: torch.Tensor | None = None
     """(M, 2) domain samples this step; None for the free boundary (no HAND term)."""
     domain_rows: int | None = None
     """HAND pulls ``Y[:domain_rows]`` onto ``W`` (all of ``Y`` when None)."""
+    hand_backend: str = "auto"
+    """Backend of that HAND term (:data:`pcgeom.losses.HAND_BACKENDS`)."""
+    hand_neighbours: int = 8
+    """k of the ``"knn"`` HAND backend."""
     landmark_index: Sequence[torch.Tensor] = field(default_factory=tuple)
     """Rows of ``Y`` holding the images f(P_k) of each landmark set."""
 
@@ -69,11 +76,13 @@ class Objective:
         keeps a seed's result bit for bit.
         """
         beta, Y = self.weights, batch.Y
-        terms = {"leg": leg(batch.X, Y, batch.lam_inv, batch.sigma, pairs=batch.pairs)}
+        terms = {"leg": leg(batch.X, Y, batch.lam_inv, batch.sigma, pairs=batch.pairs,
+                            weight=batch.leg_weight)}
         total = beta.leg * terms["leg"]
         if batch.W is not None:
             pulled = Y if batch.domain_rows is None else Y[: batch.domain_rows]
-            terms["hand"] = hand(pulled, batch.W, batch.alpha)
+            terms["hand"] = hand(pulled, batch.W, batch.alpha, backend=batch.hand_backend,
+                                 k=batch.hand_neighbours)
             total = total + beta.domain * terms["hand"]
         if batch.landmark_index:
             mapped = [Y[rows] for rows in batch.landmark_index]

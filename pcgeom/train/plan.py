@@ -29,7 +29,11 @@ class Stage:
     alpha_final: float
     """HAND sharpness at the last epoch."""
     steps_per_epoch: int
-    """ceil(|X| / B_X) mini-batches per epoch."""
+    """ceil(|X| / B_X) mini-batches per epoch, at most ``max_steps_per_epoch`` when the
+    schedule caps it."""
+
+    drop_cross_sheet: bool = False
+    """LEG pairs whose normals disagree get weight 0, when the cloud has normals."""
 
     def alpha(self, epoch: int) -> float:
         """alpha during epoch ``epoch`` (0-based): linear from alpha_initial to alpha_final
@@ -45,8 +49,11 @@ def stage_plan(n_points: int, n_domain: int, schedule: ScheduleConfig, max_stage
     Stages continue until the stage whose batch is the whole cloud has run
     (lines 3-5). A first batch larger than the cloud is clamped to it, as line
     18 would clamp it. ``n_domain = 0`` (free boundary) gives domain batches of 0.
-    ``max_stages > 0`` truncates the plan.
+    ``max_stages > 0`` truncates the plan. ``schedule.max_steps_per_epoch > 0`` caps the
+    ceil(|X| / B_X) steps of each epoch (not in the paper), so that a stage's time stops
+    growing with |X|.
     """
+    cap = schedule.max_steps_per_epoch
     E = schedule.epochs
     bx = min(schedule.batch_points, n_points)
     bw = min(schedule.batch_domain, n_domain) if n_domain else 0
@@ -54,7 +61,10 @@ def stage_plan(n_points: int, n_domain: int, schedule: ScheduleConfig, max_stage
     stages = []
     while True:
         last = bx == n_points
-        stages.append(Stage(len(stages), E, bx, bw, sigma, a0, a1, math.ceil(n_points / bx)))
+        steps = math.ceil(n_points / bx)
+        steps = min(steps, cap) if cap else steps
+        stages.append(Stage(len(stages), E, bx, bw, sigma, a0, a1, steps,
+                            schedule.drop_cross_sheet))
         if last or (max_stages and len(stages) >= max_stages):
             return stages
         sigma = max(sigma / math.sqrt(2.0), schedule.sigma_min)

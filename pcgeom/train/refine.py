@@ -9,10 +9,21 @@ from ..config import RefineConfig
 from .data import TrainData
 from .objective import Batch, Objective, StageLog, landmark_fit, step
 
-__all__ = ["refine"]
+__all__ = ["refine", "refine_hand_backend", "DENSE_HAND_MAX"]
 
 _READ_EVERY = 50
 """Refinement steps between two reads of the loss terms (each read synchronizes a GPU)."""
+
+DENSE_HAND_MAX = 1 << 23
+"""``RefineConfig.hand_backend = "auto"`` computes HAND densely while N x batch_domain is at
+most this (8192 points against 1024 samples), and with the O(N) ``"knn"`` backend above."""
+
+
+def refine_hand_backend(config: RefineConfig, n_points: int, batch_domain: int) -> str:
+    """The HAND backend the refinement uses for ``n_points`` against ``batch_domain`` samples."""
+    if config.hand_backend != "auto":
+        return config.hand_backend
+    return "dense" if n_points * batch_domain <= DENSE_HAND_MAX else "knn"
 
 
 def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Tensor],
@@ -68,6 +79,7 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
     lm_index = [torch.as_tensor(tree.query(p.cpu().double().numpy())[1], device=dev)
                 for p in data.landmark_points]
     batch_domain = min(config.batch_domain, data.n_domain)
+    hand_backend = refine_hand_backend(config, n, batch_domain)
     log = StageLog(config.steps, "refine", progress)
     for s in range(config.steps):
         batch = Batch(
@@ -75,6 +87,7 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
             # All points every step: HAND on a random subset would move only that
             # subset's points and tear them from their neighbours.
             W=data.domain_batch(batch_domain), landmark_index=lm_index,
+            hand_backend=hand_backend, hand_neighbours=config.hand_neighbours,
         )
         terms = step(objective, batch, opt)
         if s == config.steps - 1 or (log.bar is not None and s % _READ_EVERY == 0):
@@ -85,6 +98,8 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
         alpha_initial=config.alpha, alpha_final=config.alpha, batch_points=n,
         batch_domain=batch_domain,
     )
+    if data.W is not None:
+        record["hand_backend"] = hand_backend
     if lm_index:
         record["landmark_hausdorff"] = landmark_fit([U[ix] for ix in lm_index],
                                                     data.landmark_targets)

@@ -149,7 +149,8 @@ def parametrize(
     if domain.bounded:
         W = torch.tensor(domain.sample(config.domain_samples, seed=seed), device=dev, dtype=dtype)
     gen = torch.Generator(device="cpu")
-    data = TrainData(torch.tensor(Xn, device=dev, dtype=dtype), W, lm_points, lm_targets, gen)
+    data = TrainData(torch.tensor(Xn, device=dev, dtype=dtype), W, lm_points, lm_targets, gen,
+                     None if normals is None else torch.tensor(normals, device=dev, dtype=dtype))
     stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
     objective = Objective(config.weights, lm_targets)
 
