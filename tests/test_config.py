@@ -198,7 +198,8 @@ def test_config_from_dict_rejects_unknown_keys_listing_the_known_fields():
         ParamConfig.from_dict({"schedule": {"epoch": 3}})
     assert str(info.value) == (
         "ParamConfig.schedule: unknown field(s) epoch; known: alpha_final, alpha_initial, alpha_max, "
-        "batch_domain, batch_points, epochs, epochs_min, sigma, sigma_min")
+        "batch_domain, batch_points, drop_cross_sheet, epochs, epochs_min, max_steps_per_epoch, "
+        "sigma, sigma_min")
 
 
 def test_config_from_dict_rejects_bad_values_and_non_dicts():
