@@ -2,8 +2,8 @@
 
 A section runs from ``<!-- NAME: begin -->`` to ``<!-- NAME: end -->``. ``bench_param.py``
 rewrites the file and carries every other script's section; ``bench_schedules.py``,
-``gpu_section.py``, ``bench_apps.py``, ``bench_batch.py`` and ``bench_scans.py`` replace only
-their own.
+``gpu_section.py``, ``bench_apps.py``, ``bench_batch.py``, ``bench_scans.py`` and
+``bench_domains.py`` replace only their own.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 SECTIONS = ("bench_schedules", "gpu", "bench_apps", "bench_batch", "bench_scans",
-            "bench_scans_large")
+            "bench_scans_large", "bench_domains")
 """Sections written by scripts other than bench_param.py, in file order."""
 
 

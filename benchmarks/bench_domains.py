@@ -1,0 +1,337 @@
+"""Benchmark the domain targets of issue 11: the disk, the smiling face and the car.
+
+Every pcgeom row runs the CLI as a user would (``python -m pcgeom param INPUT --domain D
+--quiet --json``) in a subprocess, timed from the outside (start-up, reading, training,
+evaluation and writing included). Angle distortion and flips come from the CLI's own report
+on the input's reference triangles (never used for training), the Hausdorff distance to the
+domain from :func:`pcgeom.metrics.domain_hausdorff` (exact outside, 200 000 samples inside).
+
+- Three peaks (the built-in ``peaks3``) and ``face_human_choi`` onto the disk with ``fast``,
+  seeds 0, 1, 2 (medians), beside libigl's harmonic disk map on the true mesh
+  (:func:`pcgeom.apps.baselines.harmonic_disk`, scored by the same ``map_report``). The face
+  runs twice: the file as it is (no normals: they are estimated) and with the mesh's vertex
+  normals, as a scanner writes them.
+- ``face_3holes_small_choi`` onto ``smile`` (``fast``: onto a domain other than the disk, the
+  networks), one seed: whether each hole of the cloud lands on one eye or the mouth
+  (``examples/face_smile.py``'s test, on the map file the CLI wrote), the Hausdorff distance
+  and the angle distortion. When the holes do not all land, a second run with the holes'
+  boundary points as landmarks onto the domain's hole boundaries.
+- The analytic car shell of ``examples/car.py`` onto ``car``, one seed, without and with the
+  window-edge landmarks (134 points to 400 targets): landmark Hausdorff, domain Hausdorff,
+  angle.
+
+The three groups (disk, smile, car) run as three concurrent streams of subprocesses
+(``--streams 1`` for one after the other): the smile and car runs take many minutes each on
+two shared cores. Run it with ``OMP_NUM_THREADS=1`` so the streams do not oversubscribe the
+cores; the section records the setting and the load average.
+
+The section ``bench_domains`` of BENCHMARKS.md is replaced.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+DATA_DIR = REPO.parent / "shared" / "data"
+sys.path.insert(0, os.fspath(REPO))
+sys.path.insert(0, os.fspath(REPO / "examples"))
+ENV = dict(os.environ)
+ENV["PYTHONPATH"] = os.pathsep.join(
+    [os.fspath(REPO)] + ([os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else []))
+
+import numpy as np  # noqa: E402
+from sections import write_section  # noqa: E402
+
+TARGETS = {
+    # surface -> (max Hausdorff to the disk, max rad, max flips, max wall s), issue 11
+    "peaks3": (0.01, 0.06, 0, 120.0),
+    "face_human_choi": (0.02, 0.08, None, None),
+}
+
+
+def log(msg: str) -> None:
+    print(f"[bench_domains] {msg}", file=sys.stderr, flush=True)
+
+
+def run_param(src, domain: str, out: Path, seed: int = 0, preset: str = "fast",
+              landmarks: Path | None = None) -> dict:
+    """One CLI run: wall seconds and its JSON summary. ``src`` is a path or ``example:NAME``."""
+    src = os.fspath(src)
+    where = ["--example", src.split(":", 1)[1]] if src.startswith("example:") else [src]
+    cmd = [sys.executable, "-m", "pcgeom", "param", *where, "--preset", preset, "--domain",
+           domain, "--seed", str(seed), "--out", os.fspath(out), "--quiet", "--json"]
+    if landmarks is not None:
+        cmd += ["--landmarks", os.fspath(landmarks)]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, env=ENV, text=True)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)}: exit {proc.returncode}: {proc.stderr.strip()[-300:]}")
+    summary = json.loads(proc.stdout.strip().splitlines()[-1])
+    ev = summary["evaluation"] or {}
+    log(f"{Path(src).name} -> {domain} seed {seed}{' +landmarks' if landmarks else ''}: "
+        f"{wall:.1f} s, H {summary['domain_hausdorff']:.4f}, "
+        f"{ev.get('mean_abs_angle_rad', float('nan')):.4f} rad")
+    return {"wall_s": wall, "summary": summary, "out": out}
+
+
+def _row(name: str, method: str, runs: list[dict], needs_mesh: str) -> dict:
+    ev = [r["summary"]["evaluation"] for r in runs]
+    return {
+        "surface": name, "method": method, "needs_mesh": needs_mesh, "runs": len(runs),
+        "rad": statistics.median(e["mean_abs_angle_rad"] for e in ev),
+        "rad_range": (min(e["mean_abs_angle_rad"] for e in ev),
+                      max(e["mean_abs_angle_rad"] for e in ev)),
+        "flipped": statistics.median(e["flipped"] for e in ev),
+        "flipped_max": max(e["flipped"] for e in ev),
+        "n_faces": ev[0]["n_faces"],
+        "hausdorff": statistics.median(r["summary"]["domain_hausdorff"] for r in runs),
+        "hausdorff_max": max(r["summary"]["domain_hausdorff"] for r in runs),
+        "wall_s": statistics.median(r["wall_s"] for r in runs),
+        "train_s": statistics.median(r["summary"]["seconds"] for r in runs),
+    }
+
+
+def disk_rows(seeds, work: Path) -> list[dict]:
+    from pcgeom import get_domain, read_points
+    from pcgeom.apps.baselines import harmonic_disk
+    from pcgeom.apps.evaluate import map_report
+    from pcgeom.examples import load_example
+    from pcgeom.io import write_ply_atomic
+
+    disk = get_domain("disk")
+    rows = []
+    inputs = [("peaks3", "example:peaks3", load_example("peaks3"), "no normals")]
+    face = DATA_DIR / "face_human_choi.ply"
+    if face.exists():
+        cloud = read_points(face)
+        inputs.append(("face_human_choi", face, (cloud.points, cloud.faces),
+                       "no normals"))
+        import trimesh
+
+        normals = np.asarray(trimesh.Trimesh(cloud.points, cloud.faces, process=False)
+                             .vertex_normals, dtype=np.float64)
+        with_normals = work / "face_human_choi_normals.ply"
+        write_ply_atomic(with_normals, cloud.points, cloud.faces, normals=normals)
+        inputs.append(("face_human_choi", with_normals, (cloud.points, cloud.faces),
+                       "the mesh's vertex normals"))
+    else:
+        log(f"{face} is missing: face_human_choi left out")
+    for name, src, (V, F), kind in inputs:
+        runs = [run_param(src, "disk", work / f"{name}_{len(rows)}_{s}.npz", seed=s)
+                for s in seeds]
+        rows.append(_row(name, f"pcgeom `fast` ({kind})", runs, "no"))
+        if kind == "no normals":
+            t0 = time.perf_counter()
+            U = harmonic_disk(V, F)
+            seconds = time.perf_counter() - t0
+            rep = map_report(U, disk, V, F)
+            rows.append({"surface": name, "method": "harmonic disk map (libigl, true mesh)",
+                         "needs_mesh": "yes (+ boundary)", "runs": 1,
+                         "rad": rep["mean_abs_angle_rad"], "rad_range": None,
+                         "flipped": rep["flipped"], "flipped_max": rep["flipped"],
+                         "n_faces": rep["n_faces"], "hausdorff": rep["domain_hausdorff"],
+                         "hausdorff_max": rep["domain_hausdorff"], "wall_s": seconds,
+                         "train_s": None})
+    return rows
+
+
+def smile_rows(seed: int, work: Path) -> list[dict]:
+    from face_smile import cloud_holes, domain_holes, hole_landmarks, landing
+
+    from pcgeom import ParamResult, get_domain, read_points
+
+    src = DATA_DIR / "face_3holes_small_choi.ply"
+    if not src.exists():
+        log(f"{src} is missing: the smile rows are left out")
+        return []
+    cloud = read_points(src)
+    smile = get_domain("smile")
+    holes, targets = cloud_holes(cloud.points, cloud.faces), domain_holes(smile)
+    rows = []
+
+    def row(run, method):
+        U = ParamResult.load(run["out"]).uv
+        land = landing(U, holes, targets)
+        ev = run["summary"]["evaluation"]
+        rows.append({"method": method, "landing": land, "wall_s": run["wall_s"],
+                     "hausdorff": run["summary"]["domain_hausdorff"],
+                     "rad": ev["mean_abs_angle_rad"], "flipped": ev["flipped"],
+                     "n_faces": ev["n_faces"],
+                     "landmark_hausdorff": run["summary"]["landmark_hausdorff"]})
+        return U, land
+
+    U, land = row(run_param(src, "smile", work / "smile.npz", seed=seed), "pcgeom `fast`")
+    if not land["all_land"]:
+        pairs, names = hole_landmarks(cloud.points, U, holes, targets)
+        marks = work / "smile_landmarks.json"
+        marks.write_text(json.dumps([{"points": P.tolist(), "targets": Q.tolist()}
+                                     for P, Q in pairs]))
+        row(run_param(src, "smile", work / "smile_lm.npz", seed=seed, landmarks=marks),
+            "pcgeom `fast`, hole boundaries as landmarks (" + ", ".join(names) + ")")
+    return rows
+
+
+def car_rows(seed: int, n: int, work: Path) -> list[dict]:
+    from car import TARGET_LINES, TARGET_SPACING, car_shell
+
+    from pcgeom.io import write_ply_atomic
+
+    V, F, edges = car_shell(n, seed=0)
+    shell = work / "car_shell.ply"
+    write_ply_atomic(shell, V, F)
+    marks = work / "car_landmarks.json"
+    marks.write_text(json.dumps([{"indices": edges.tolist(), "polylines": TARGET_LINES,
+                                  "spacing": TARGET_SPACING}]))
+    rows = []
+    for method, lm in (("pcgeom `fast`", None), ("pcgeom `fast`, window-edge landmarks", marks)):
+        run = run_param(shell, "car", work / f"car_{len(rows)}.npz", seed=seed, landmarks=lm)
+        from pcgeom import ParamResult
+        from pcgeom.io.landmarks import sample_polyline
+        from pcgeom.metrics import hausdorff
+
+        U = ParamResult.load(run["out"]).uv
+        targets = np.vstack([sample_polyline(line, TARGET_SPACING) for line in TARGET_LINES])
+        ev = run["summary"]["evaluation"]
+        rows.append({"method": method, "points": len(V), "landmarks": len(edges),
+                     "targets": len(targets), "landmark_fit": hausdorff(U[edges], targets),
+                     "hausdorff": run["summary"]["domain_hausdorff"],
+                     "rad": ev["mean_abs_angle_rad"], "flipped": ev["flipped"],
+                     "n_faces": ev["n_faces"], "wall_s": run["wall_s"]})
+    return rows
+
+
+def verdicts(rows) -> list[str]:
+    out = []
+    for name, (h_max, rad_max, flips_max, wall_max) in TARGETS.items():
+        for r in rows:
+            if r["surface"] != name or not r["method"].startswith("pcgeom"):
+                continue
+            checks = [f"Hausdorff {r['hausdorff']:.4f} (want <= {h_max}): "
+                      f"{'PASS' if r['hausdorff'] <= h_max else 'FAIL'}",
+                      f"angle {r['rad']:.4f} rad (want <= {rad_max}): "
+                      f"{'PASS' if r['rad'] <= rad_max else 'FAIL'}"]
+            if flips_max is not None:
+                checks.append(f"flips {r['flipped_max']} in the worst seed (want "
+                              f"<= {flips_max}): "
+                              f"{'PASS' if r['flipped_max'] <= flips_max else 'FAIL'}")
+            if wall_max is not None:
+                checks.append(f"wall {r['wall_s']:.1f} s (want <= {wall_max:g} s): "
+                              f"{'PASS' if r['wall_s'] <= wall_max else 'FAIL'}")
+            out.append(f"- {name}, {r['method']}: " + "; ".join(checks))
+    return out
+
+
+def args_streams(args) -> str:
+    """The ``--streams`` value in a command line (default 3)."""
+    return args[args.index("--streams") + 1] if "--streams" in args else "3"
+
+
+def render(disk, smile, car, args, started: float) -> str:
+    import platform
+
+    import torch
+
+    load = os.getloadavg() if hasattr(os, "getloadavg") else None
+    out = ["## Domains: the disk, the smiling face and the car (`benchmarks/bench_domains.py`)",
+           "",
+           f"- date: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {os.cpu_count()} "
+           f"cores, Python {platform.python_version()}, torch {torch.__version__}; "
+           f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', '(unset)')}, "
+           f"{args_streams(args)} concurrent stream(s); "
+           f"{(time.time() - started) / 60:.0f} min in all; load average at end "
+           f"{[round(x, 2) for x in load] if load else 'n/a'} (above the core count: other "
+           "work competed, and wall times are inflated)",
+           f"- command: `python benchmarks/bench_domains.py {' '.join(args)}`".rstrip(),
+           "- wall: the whole `python -m pcgeom param ... --quiet --json` subprocess; angles "
+           "and flips on the reference triangles (never used for training); Hausdorff: "
+           "`pcgeom.metrics.domain_hausdorff` (exact outside the domain, 200 000 samples "
+           "inside: resolution about 0.004 on the unit disk)", ""]
+    if disk:
+        out += ["Onto the unit disk, `fast` (the local mesh made conformal onto the disk; "
+                "deterministic on one machine), medians over the seeds:", "",
+                "| surface | method | needs mesh? | runs | mean abs angle, rad [min-max] | "
+                "flips, median (worst) | Hausdorff to the disk, median (worst) | wall s |",
+                "|---|---|---|---|---|---|---|---|"]
+        for r in disk:
+            rng = (f" [{r['rad_range'][0]:.4f}-{r['rad_range'][1]:.4f}]"
+                   if r["rad_range"] else "")
+            out.append(f"| {r['surface']} | {r['method']} | {r['needs_mesh']} | {r['runs']} | "
+                       f"{r['rad']:.4f}{rng} | {r['flipped']:g} ({r['flipped_max']}) of "
+                       f"{r['n_faces']} | {r['hausdorff']:.4f} ({r['hausdorff_max']:.4f}) | "
+                       f"{r['wall_s']:.1f} |")
+        out += ["", "Targets (issue 11, on the medians):", "", *verdicts(disk), ""]
+    if smile:
+        out += ["`face_3holes_small_choi` (5053 points, three holes) onto `smile`, one seed "
+                "(seed 0; a run takes minutes). A hole *lands* when the closed polygon of its "
+                "mapped boundary points encloses one domain hole and no other, one to one "
+                "(`examples/face_smile.py`, `landing`):", "",
+                "| method | every hole lands | holes: nearest domain hole (encloses; Hausdorff "
+                "of the mapped loop to its boundary) | Hausdorff to the domain | mean abs "
+                "angle, rad | flips | wall s |", "|---|---|---|---|---|---|---|"]
+        for r in smile:
+            holes = "; ".join(f"{h['nearest']} ({', '.join(h['encloses']) or 'none'}; "
+                              f"{h['hausdorff']:.3f})" for h in r["landing"]["holes"])
+            out.append(f"| {r['method']} | {'yes' if r['landing']['all_land'] else 'NO'} | "
+                       f"{holes} | {r['hausdorff']:.4f} | {r['rad']:.4f} | {r['flipped']} of "
+                       f"{r['n_faces']} | {r['wall_s']:.1f} |")
+        out.append("")
+    if car:
+        r0 = car[0]
+        out += [f"The analytic car shell of `examples/car.py` ({r0['points']} points) onto "
+                f"`car`, one seed (seed 0): landmark fit is the Hausdorff distance between the "
+                f"{r0['landmarks']} mapped window-edge points (one set) and the "
+                f"{r0['targets']} targets on [-0.5, 0.5] x {{-0.25, 0.25}}:", "",
+                "| method | landmark Hausdorff | Hausdorff to the domain | mean abs angle, rad "
+                "| flips | wall s |", "|---|---|---|---|---|---|"]
+        for r in car:
+            out.append(f"| {r['method']} | {r['landmark_fit']:.4f} | {r['hausdorff']:.4f} | "
+                       f"{r['rad']:.4f} | {r['flipped']} of {r['n_faces']} | "
+                       f"{r['wall_s']:.1f} |")
+        out.append("")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--seeds", nargs="*", type=int, default=[0, 1, 2],
+                   help="seeds of the disk runs (default: 0 1 2)")
+    p.add_argument("--skip", nargs="*", default=[], choices=["disk", "smile", "car"])
+    p.add_argument("--car-points", type=int, default=5000)
+    p.add_argument("--streams", type=int, default=3,
+                   help="groups (disk, smile, car) run at once (default: 3)")
+    p.add_argument("--out", type=Path, default=REPO / "BENCHMARKS.md")
+    p.add_argument("--json", type=Path, help="also write the rows as JSON")
+    args = p.parse_args(argv)
+    started = time.time()
+    from concurrent.futures import ThreadPoolExecutor
+
+    with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(args.streams) as pool:
+        work = Path(tmp)
+        jobs = {"smile": lambda: smile_rows(0, work),
+                "car": lambda: car_rows(0, args.car_points, work),
+                "disk": lambda: disk_rows(args.seeds, work)}
+        futures = {name: pool.submit(job) for name, job in jobs.items()
+                   if name not in args.skip}
+        rows = {name: futures[name].result() if name in futures else [] for name in jobs}
+        disk, smile, car = rows["disk"], rows["smile"], rows["car"]
+    if args.json:
+        args.json.write_text(json.dumps({"disk": disk, "smile": smile, "car": car}, indent=2,
+                                        default=float))
+    write_section(args.out, "bench_domains",
+                  render(disk, smile, car, argv if argv is not None else sys.argv[1:], started))
+    log(f"wrote the bench_domains section of {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
