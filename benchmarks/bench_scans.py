@@ -18,7 +18,7 @@ Inputs written for the runs (in a temporary folder):
   the time and memory curve.
 
 The section ``bench_scans`` of BENCHMARKS.md is replaced; the curve is drawn to
-``benchmarks/results/scans_time_vs_n.png``.
+``benchmarks/figures/scans_time_vs_n.png`` (tracked, so that BENCHMARKS.md shows it).
 """
 
 from __future__ import annotations
@@ -364,7 +364,7 @@ def main(argv=None) -> int:
         noise = noise_rows([s for s in args.noise if (DATA_DIR / f"{s}.ply").exists()], work)
         scale = scale_rows(args.sizes, work) if args.sizes else []
     stem = "scans" if args.section == "bench_scans" else args.section
-    plot = REPO / "benchmarks" / "results" / f"{stem}_time_vs_n.png" if len(scale) > 1 else None
+    plot = REPO / "benchmarks" / "figures" / f"{stem}_time_vs_n.png" if len(scale) > 1 else None
     if plot is not None:
         plot_scale(scale, plot)
     write_section(args.out, args.section,
