@@ -205,6 +205,34 @@ def test_min_loop_drops_small_loops_and_keeps_them_aside():
     assert [len(loop) for loop in detect_boundary(single, min_loop=3).loops] == [44]
 
 
+def test_min_width_measures_holes_on_the_surface_and_drops_the_narrow_ones():
+    from pcgeom.apps.boundary import hole_width
+
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(24), np.arange(24), indexing="xy"))
+    wide = (i >= 4) & (i <= 11) & (j >= 4) & (j <= 11)  # 8 x 8 points missing
+    narrow = (i >= 14) & (i <= 20) & (j >= 15) & (j <= 16)  # 7 x 2 points missing
+    keep = ~(wide | narrow)
+    U = np.column_stack([i + 0.2 * j, j]).astype(np.float64)[keep]
+    # On a bent surface, so that widths are measured in 3D: a cylinder of radius 10.
+    P = np.column_stack([10 * np.sin(U[:, 0] / 10), U[:, 1], 10 * np.cos(U[:, 0] / 10)])
+    every = detect_boundary(U, points=P)  # min_width 0: nothing dropped for width
+    assert len(every.loops) == 3 and every.min_width == 0.0
+    assert np.isnan(every.widths[0])  # the outer loop is not judged
+    # Inradius estimates 2A/P (grid units: the 9 x 9 gap 4.5, the 8 x 3 slit 2.2) over a
+    # spacing of about one grid step (measured 4.41 and 2.16).
+    w_wide, w_narrow = every.widths[1], every.widths[2]
+    assert 3.5 < w_wide < 5.0 and 1.5 < w_narrow < 2.5
+    dropped = detect_boundary(U, points=P, min_width=3.0)
+    assert len(dropped.loops) == 2 and dropped.widths[1] == w_wide
+    assert [len(loop) for loop in dropped.dropped] == [len(every.loops[2])]
+    assert dropped.to_dict()["min_width"] == 3.0 and dropped.to_dict()["widths"][0] is None
+    assert detect_boundary(U).widths is None  # without the cloud nothing is measured
+    # A round hole: its radius over the spacing.
+    t = np.linspace(0, 2 * np.pi, 50, endpoint=False)
+    circle = np.column_stack([np.cos(t), np.sin(t), np.zeros(50)])
+    assert hole_width(circle, np.arange(50), np.full(50, 0.5)) == pytest.approx(2.0, rel=0.01)
+
+
 @pytest.mark.parametrize("kwargs, message", [
     ({"U": np.zeros((5, 3))}, r"U: expected shape \(N, 2\), got \(5, 3\)"),
     ({"U": np.zeros(6)}, r"U: expected shape \(N, 2\), got \(6,\)"),
@@ -220,6 +248,11 @@ def test_min_loop_drops_small_loops_and_keeps_them_aside():
     ({"c": 0}, "c: expected a positive number, got 0.0"),
     ({"min_loop": 2}, "min_loop: expected an integer >= 3, got 2"),
     ({"min_loop": 4.0}, "min_loop: expected an integer >= 3, got 4.0"),
+    ({"points": np.zeros((49, 3))}, r"points: expected shape \(50, 3\) \(one row per map row\), "
+                                    r"got \(49, 3\)"),
+    ({"points": np.full((50, 3), np.nan)}, "points: contains NaN or inf"),
+    ({"points": np.zeros((50, 3)), "min_width": -1},
+     "min_width: expected a non-negative number, got -1.0"),
 ])
 def test_bad_input_is_one_line_input_error(kwargs, message):
     args = {"U": get_domain("disk").sample(50), **kwargs}
@@ -379,7 +412,8 @@ def test_cli_with_a_map_writes_the_loops(tmp_path, capsys):
     assert [len(loop) for loop in doc["loops"]] == [44, 12]
     assert doc["loops"] == [loop.tolist() for loop in detect_boundary(U).loops]
     assert "2 boundary loop(s)" in stdout
-    assert "loop 1 (outer): 44 points" in stdout and "loop 2 (hole): 12 points" in stdout
+    assert "loop 1 (outer): 44 points" in stdout
+    assert "loop 2 (hole): 12 points, 2.0 spacings wide" in stdout  # a 4 x 4 gap
     assert (tmp_path / "loops.png").read_bytes()[:8] == PNG_SIGNATURE
 
     code = cli.main(["boundary", str(src), "--map", str(map_path), "--out", str(out),
@@ -422,6 +456,9 @@ def test_cli_bad_input_is_one_line_before_training(tmp_path, capsys, no_training
     for bad in ("0", "-1", "nan", "wide"):
         _fails(capsys, ["boundary", str(src), "--out", str(out), "--h", bad],
                f"argument --h: expected a positive number, got '{bad}'")
+    for bad in ("-1", "inf", "thin"):
+        _fails(capsys, ["boundary", str(src), "--out", str(out), "--min-width", bad],
+               f"argument --min-width: expected a non-negative number, got '{bad}'")
     _fails(capsys, ["boundary", str(src), "--out", str(out), "--map", str(tmp_path / "m.json")],
            "m.json: map must have extension '.npz', got '.json'")
     _fails(capsys, ["boundary", str(src)], "the following arguments are required: --out")

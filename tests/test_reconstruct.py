@@ -176,13 +176,57 @@ def test_bad_input_is_rejected():
     with pytest.raises(InputError, match="no boundary loop; the reconstruction would be empty"):
         reconstruct_surface(P, U, replace(found, loops=[], areas=np.zeros(0)))
     loop = found.loops[0]
-    touching = replace(found, loops=[loop, loop[:5][::-1]], areas=np.array([1.0, -0.1]))
-    with pytest.raises(InputError, match=r"row \d+ is on a loop twice \(loops touch there\)"):
-        reconstruct_surface(P, U, touching)
+    sharing = replace(found, loops=[loop, loop[:5][::-1]], areas=np.array([1.0, -0.1]))
+    with pytest.raises(InputError, match=r"loops: the edge of rows \d+ and \d+ is on loops "
+                                         "twice; loops may touch at points but not share edges"):
+        reconstruct_surface(P, U, sharing)
     with pytest.raises(InputError, match="first loop must be the outer loop"):
         reconstruct_surface(P, U, replace(found, loops=[loop[::-1]], areas=-found.areas))
     with pytest.raises(TypeError, match="loops: expected BoundaryLoops"):
         reconstruct_surface(P, U, found.loops)
+
+
+def _square(i0: int, j0: int, n: int = 12, side: int = 2) -> np.ndarray:
+    """Rows of ``_grid(n)`` on the square of grid corners (i0, j0) and (i0 + side, j0 + side),
+    clockwise (a hole's orientation), every grid point on its sides."""
+    ring = ([(i0, j0 + k) for k in range(side)] + [(i0 + k, j0 + side) for k in range(side)]
+            + [(i0 + side, j0 + side - k) for k in range(side)]
+            + [(i0 + side - k, j0) for k in range(side)])
+    return np.array([j * n + i for i, j in ring])
+
+
+def _holes(U, found, *holes) -> "BoundaryLoops":
+    from pcgeom.apps.boundary import BoundaryLoops
+
+    return BoundaryLoops(loops=[found.loops[0], *holes],
+                         areas=np.array([1.0] + [-1.0] * len(holes)), h=None, c=1.0,
+                         min_loop=3, triangles=found.triangles)
+
+
+def test_loops_that_touch_at_a_point_are_meshed_with_one_copy_per_visit():
+    U = _grid(12)
+    P = np.column_stack([U, 0.3 * U[:, 0] - 0.2 * U[:, 1]])
+    found = detect_boundary(U)
+    # Two holes with the grid point (4, 4) in common, as detection reports them.
+    touching = _holes(U, found, _square(2, 2), _square(4, 4))
+    assert len(np.intersect1d(touching.loops[1], touching.loops[2])) == 1
+    V, F, report = reconstruct_surface(P, U, touching, target_vertices=400)
+    _assert_clean(report, 3)  # the two holes stay two loops
+    np.testing.assert_allclose(V[:, 2], 0.3 * V[:, 0] - 0.2 * V[:, 1], atol=1e-12)
+
+
+def test_crossing_loops_of_a_folded_map_are_repaired_into_simple_polygons():
+    from pcgeom.apps.reconstruct import _polygons, _valid
+
+    U = _grid(12)
+    P = np.column_stack([U, np.zeros(len(U))])
+    found = detect_boundary(U)
+    # Two holes that overlap, as where a fold lays kept triangles over each other.
+    crossing = _holes(U, found, _square(3, 3), _square(4, 4))
+    parts = _polygons(U, crossing)
+    assert _valid(parts) and len(parts) == 1 and len(parts[0]) == 2  # one merged hole
+    V, F, report = reconstruct_surface(P, U, crossing, target_vertices=300)
+    _assert_clean(report, 2)
 
 
 def test_gmsh_is_finalized_when_meshing_fails(monkeypatch):

@@ -66,6 +66,38 @@ not holes of the surface. In the runs of the table at c = 1 the dropped loops ha
 points, the spurious loops kept with noise on face_human have 11, and the smallest true loop
 has 20 points; :data:`DEFAULT_MIN_LOOP` = 8.
 
+Holes narrower than the spacing (optional, with the cloud's points)
+------------------------------------------------------------------
+Given the cloud (``points``) and ``min_width > 0``, a hole is also judged by its width *on
+the surface*: its 3D loop's inradius estimate ``w = 2 A / P`` (``A`` the area of the loop's 3D
+polygon, the norm of its vector area about its centroid; ``P`` its 3D perimeter; ``w`` is the
+radius of a round hole and the half-width of a slit) over the local spacing at its points (the
+median 3D length of the kept triangles' edges at them), :func:`hole_width`. A hole narrower
+than ``min_width`` spacings is dropped as a gap of the sampling or a tear of the map. Such
+gaps are where the local-mesh map is worst: where sampling changes abruptly (the dense rows
+at the eyelid creases of face_human_choi) the local mesh has small holes, which the
+free-boundary LSCM opens. Measured (default rule, ``c = 1``; widths in spacings):
+
+============================  ==============================  ==========================
+map                           true holes                      spurious holes
+============================  ==============================  ==========================
+face_3holes_small, ``fast``   3.6, 6.5, 7.4                   none
+face_human, its normals       none                            0.16, 0.16, 0.84, 0.84
+face_human, bare cloud        none                            19 holes, 0.28-2.0
+peaks_7holes, ``fast``        1.3, 1.7 (2 of 7 seen)          none
+peaks_7holes, xy projection   0.72-1.7 (all 7)                none
+============================  ==============================  ==========================
+
+With ``min_width = 1`` face_human with its normals comes out as one loop (precision and
+recall 1.0, from 5 loops and 0.76) and the bare face_human as 5 loops (from 20; precision
+0.42 to 0.75), but on the xy projection of peaks_7holes, a good map, 6 of the 7 holes go:
+its holes are only about three spacings across, as narrow as those sampling gaps. Other
+measures of width (the area of the fan from the loop's centroid; the median distance across
+the loop) overlap in the same way. So no width separates them on these surfaces, and the
+default, :data:`DEFAULT_MIN_WIDTH` = 0, keeps every hole; pass ``min_width = 1`` for scans
+sampled unevenly whose holes are known to be wide. The outer loop and islands are never
+judged by width.
+
 Where loops touch (a non-manifold vertex)
 -----------------------------------------
 Each boundary edge is walked with its kept triangle on the left and the removed region on
@@ -86,7 +118,8 @@ import numpy as np
 from ..cloud import _one_line, deduplicate
 from ..errors import InputError
 
-__all__ = ["BoundaryLoops", "detect_boundary", "local_spacing", "DEFAULT_C", "DEFAULT_MIN_LOOP"]
+__all__ = ["BoundaryLoops", "detect_boundary", "local_spacing", "hole_width", "DEFAULT_C",
+           "DEFAULT_MIN_LOOP", "DEFAULT_MIN_WIDTH"]
 
 DEFAULT_C = 1.0
 """Factor of the default local rule: a triangle goes when its circumradius exceeds ``c`` times
@@ -94,6 +127,11 @@ the local spacing (module docstring)."""
 
 DEFAULT_MIN_LOOP = 8
 """Fewest distinct points on a reported loop (see :func:`detect_boundary`)."""
+
+DEFAULT_MIN_WIDTH = 0.0
+"""Narrowest hole kept when the cloud is given, in local spacings (its 3D inradius estimate,
+:func:`hole_width`): 0, every hole, since no width separates the test surfaces' sampling gaps
+from their small holes (module docstring)."""
 
 
 @dataclass(frozen=True)
@@ -115,11 +153,17 @@ class BoundaryLoops:
     min_loop: int
     """Loops with fewer distinct points than this were dropped."""
     dropped: list[np.ndarray] = field(default_factory=list)
-    """The dropped loops (same form as ``loops``), largest area first."""
+    """The dropped loops (same form as ``loops``): fewer than ``min_loop`` points, or holes
+    narrower than ``min_width``; largest area first."""
     triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int64))
     """(M, 3) int64 kept Delaunay triangles, input rows, counter-clockwise in the map."""
     removed: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int64))
     """(K, 3) int64 Delaunay triangles that were removed, input rows."""
+    widths: np.ndarray | None = None
+    """(len(loops),) width of each hole on the surface in local spacings
+    (:func:`hole_width`), NaN for the outer loop and islands; None without the cloud."""
+    min_width: float | None = None
+    """Holes narrower than this (in spacings) were dropped; None without the cloud."""
 
     def to_dict(self) -> dict:
         """The JSON form written by ``pcgeom boundary``: loops as lists of input rows."""
@@ -131,6 +175,9 @@ class BoundaryLoops:
             "c": self.c,
             "min_loop": self.min_loop,
             "areas": [float(a) for a in self.areas],
+            "min_width": self.min_width,
+            "widths": None if self.widths is None
+                      else [None if np.isnan(w) else float(w) for w in self.widths],
             "dropped": [loop.tolist() for loop in self.dropped],
         }
 
@@ -158,6 +205,31 @@ def _check_positive(value, name: str) -> float:
         raise InputError(f"{name}: expected a positive number, got {value!r}") from None
     if not np.isfinite(value) or value <= 0:
         raise InputError(f"{name}: expected a positive number, got {value}")
+    return value
+
+
+def _validate_points_of(points, n: int) -> np.ndarray:
+    """``points`` as a finite (n, 3) float64 array (the cloud of a map of n rows)."""
+    try:
+        X = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"points: cannot convert to a float array ({_one_line(exc)})") from None
+    if X.shape != (n, 3):
+        raise InputError(f"points: expected shape ({n}, 3) (one row per map row), got {X.shape}")
+    if not np.isfinite(X).all():
+        raise InputError("points: contains NaN or inf")
+    return X
+
+
+def _check_non_negative(value, name: str) -> float:
+    if isinstance(value, bool):
+        raise InputError(f"{name}: expected a non-negative number, got {value!r}")
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected a non-negative number, got {value!r}") from None
+    if not np.isfinite(value) or value < 0:
+        raise InputError(f"{name}: expected a non-negative number, got {value}")
     return value
 
 
@@ -220,6 +292,37 @@ def local_spacing(U, T) -> np.ndarray:
     hi = start[:-1] + count // 2
     out[has] = 0.5 * (length[lo[has]] + length[hi[has]])
     return out
+
+
+def hole_width(X, loop, spacing) -> float:
+    """Width of a hole on the surface, in local spacings: ``2 A / (P s)``.
+
+    Parameters
+    ----------
+    X : (N, 3) array_like
+        The cloud.
+    loop : (K,) array_like of int
+        The hole's loop, rows of ``X`` in order.
+    spacing : (N,) array_like
+        Local point spacing (e.g. :func:`local_spacing` of the kept triangles in 3D).
+
+    Returns
+    -------
+    float
+        ``A``: area of the loop's 3D polygon (the norm of its vector area about its centroid);
+        ``P``: its 3D perimeter; ``s``: the median of ``spacing`` over the loop. ``2 A / P``
+        is the radius of a round hole and the half-width of a slit; 0 for a degenerate loop.
+    """
+    X = np.asarray(X, dtype=np.float64)
+    loop = np.asarray(loop, dtype=np.int64)
+    Q = X[loop] - X[loop].mean(axis=0)  # (K, 3)
+    nxt = np.roll(Q, -1, axis=0)
+    perimeter = float(np.linalg.norm(nxt - Q, axis=1).sum())
+    area = 0.5 * float(np.linalg.norm(np.cross(Q, nxt).sum(axis=0)))
+    s = float(np.median(np.asarray(spacing, dtype=np.float64)[loop]))
+    if perimeter <= 0 or not s > 0:
+        return 0.0
+    return 2.0 * area / (perimeter * s)
 
 
 def _kept(U: np.ndarray, T: np.ndarray, h: float | None, c: float) -> np.ndarray:
@@ -291,7 +394,8 @@ def _start_at_smallest(loop: np.ndarray) -> np.ndarray:
 
 
 def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
-                    min_loop: int = DEFAULT_MIN_LOOP) -> BoundaryLoops:
+                    min_loop: int = DEFAULT_MIN_LOOP, points=None,
+                    min_width: float = DEFAULT_MIN_WIDTH) -> BoundaryLoops:
     """Boundary loops of a free-boundary map: Delaunay, long triangles removed, loops ordered.
 
     Parameters
@@ -311,6 +415,13 @@ def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
         8 is measured (module docstring): the gaps that uneven sampling leaves on the test
         surfaces' maps have up to 7 points, their smallest true loop 20. A hole only a few
         point spacings across has fewer points and cannot be told from a sampling gap.
+    points : (N, 3) array_like, optional
+        The cloud the map was made from (same rows). With it, each hole's width on the
+        surface is measured (``BoundaryLoops.widths``), and holes narrower than
+        ``min_width`` local spacings are dropped (module docstring).
+    min_width : float
+        Narrowest hole kept, in local spacings (:func:`hole_width`); the default 0 keeps
+        every hole. Used only with ``points``.
 
     Returns
     -------
@@ -321,7 +432,8 @@ def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
     ------
     InputError
         ``U`` not (N, 2), with NaN or inf, fewer than 3 distinct points, or all on one line;
-        ``h`` or ``c`` not a positive number; ``min_loop`` not an integer >= 3.
+        ``h`` or ``c`` not a positive number; ``min_loop`` not an integer >= 3;
+        ``points`` not (N, 3) finite with the rows of ``U``; ``min_width`` negative.
 
     Notes
     -----
@@ -336,6 +448,10 @@ def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
     if (isinstance(min_loop, bool) or not isinstance(min_loop, (int, np.integer))
             or min_loop < 3):
         raise InputError(f"min_loop: expected an integer >= 3, got {min_loop!r}")
+    X = None
+    if points is not None:
+        X = _validate_points_of(points, len(U))
+        min_width = _check_non_negative(min_width, "min_width")
     unique, inverse = deduplicate(U)  # unique[inverse] == U
     if len(unique) < 3:
         raise InputError(f"U: {len(unique)} distinct points (of {len(U)}), need at least 3")
@@ -350,7 +466,14 @@ def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
     # counter-clockwise one, then moves to the front.
     order = sorted(range(len(loops)), key=lambda i: (-abs(areas[i]), int(loops[i][0])))
     kept = [i for i in order if len(np.unique(loops[i])) >= min_loop]
-    dropped = [i for i in order if len(np.unique(loops[i])) < min_loop]
+    widths = np.full(len(loops), np.nan)
+    if X is not None:
+        spacing = local_spacing(X, row[T[keep]])  # 3D lengths of the kept edges
+        for i in kept:
+            if areas[i] < 0:  # a hole (clockwise)
+                widths[i] = hole_width(X, loops[i], spacing)
+        kept = [i for i in kept if not widths[i] < min_width]  # NaN (not a hole) stays
+    dropped = [i for i in order if i not in set(kept)]
     if kept:
         kept.insert(0, kept.pop(int(np.argmax([areas[i] for i in kept]))))
     return BoundaryLoops(
@@ -362,4 +485,6 @@ def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
         dropped=[loops[i] for i in dropped],
         triangles=row[T[keep]],
         removed=row[T[~keep]],
+        widths=None if X is None else widths[kept],
+        min_width=None if X is None else float(min_width),
     )

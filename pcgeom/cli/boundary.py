@@ -9,7 +9,7 @@ import sys
 
 import numpy as np
 
-from ..apps.boundary import DEFAULT_MIN_LOOP, detect_boundary
+from ..apps.boundary import DEFAULT_MIN_LOOP, DEFAULT_MIN_WIDTH, detect_boundary
 from ..config import get_preset
 from ..io import check_writable, read_points
 from ..io.atomic import write_atomic
@@ -33,12 +33,16 @@ examples:
   pcgeom boundary scan.ply --map scan_uv.npz --h 0.02 --out loops.json --quiet --json
       the paper's rule: remove every triangle with an edge longer than 0.02 (map units; pick
       2-3 times the map's point spacing, docs/choosing_parameters.md)
+  pcgeom boundary scan.ply --map scan_uv.npz --min-width 1 --out loops.json
+      also drop holes narrower on the surface than one point spacing (sampling gaps of an
+      unevenly sampled scan; a true hole only ~3 spacings across goes too)
 
 LOOPS.json holds {{"loops": [[i0, i1, ...], ...], "h": ..., ...}}: each loop as rows of INPUT
 (from 0), outer loop first (counter-clockwise in the map), then the holes by size. Without
 --h, triangles are judged against the local point spacing of the map, which needs no scale
 (see pcgeom.apps.boundary). Loops of fewer than {DEFAULT_MIN_LOOP} points are dropped as sampling gaps.
-Faces in INPUT are never used.
+Each hole's width on the surface (its 3D inradius estimate over the local point spacing) is
+reported; --min-width drops the narrower ones. Faces in INPUT are never used.
 """
 
 
@@ -53,12 +57,32 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _non_negative_float(text: str) -> float:
+    """argparse type of ``--min-width``: a finite number >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text!r}") from None
+    if not np.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text!r}")
+    return value
+
+
+def add_min_width(p: argparse.ArgumentParser) -> None:
+    """``--min-width``, shared with ``pcgeom reconstruct``."""
+    p.add_argument("--min-width", type=_non_negative_float, default=DEFAULT_MIN_WIDTH,
+                   metavar="W",
+                   help="drop holes narrower on the surface than W local point spacings "
+                        f"(default: {DEFAULT_MIN_WIDTH:g}, keep every hole)")
+
+
 def configure(p: argparse.ArgumentParser) -> None:
     """Add ``boundary``'s arguments to ``p``."""
     add_cloud_and_map(p)
     p.add_argument("--h", type=_positive_float, metavar="H",
                    help="remove every triangle with an edge longer than H in the map (the "
                         "paper's rule; default: a rule from the local point spacing)")
+    add_min_width(p)
     p.add_argument("--out", required=True, metavar="LOOPS.json", help="the loops, as JSON")
     p.add_argument("--plot", metavar="LOOPS.png",
                    help="also draw the map with the loops and the removed triangles")
@@ -81,7 +105,7 @@ def run(args) -> int:
         result = parametrize(points, "free", config=get_preset("fast"),
                              progress=not args.quiet)
 
-    found = detect_boundary(result.uv, h=args.h)
+    found = detect_boundary(result.uv, h=args.h, points=points, min_width=args.min_width)
     document = {**found.to_dict(), "input": args.input, "n_points": len(points)}
     write_atomic(out, lambda f: f.write(json.dumps(document).encode("utf-8")))
     if plot is not None:
@@ -99,8 +123,10 @@ def run(args) -> int:
         "h": found.h,
         "c": found.c,
         "min_loop": found.min_loop,
+        "min_width": found.min_width,
         "n_loops": len(found.loops),
         "loop_points": [len(loop) for loop in found.loops],
+        "hole_widths": found.to_dict()["widths"],
         "n_dropped": len(found.dropped),
         "mapped_seconds": None if args.map is not None else float(result.seconds),
     }
@@ -111,11 +137,14 @@ def run(args) -> int:
             else f"local spacing rule, c = {found.c:g}")
     print(f"{args.input}: {len(points)} points, {len(found.loops)} boundary loop(s) ({rule}) "
           f"-> {summary['out']}" + (f", {summary['plot']}" if plot else ""))
-    for i, (loop, area) in enumerate(zip(found.loops, found.areas)):
+    for i, (loop, area, width) in enumerate(zip(found.loops, found.areas, found.widths)):
         kind = "outer" if i == 0 else "hole" if area < 0 else "island"
-        print(f"  loop {i + 1} ({kind}): {len(loop)} points")
+        wide = f", {width:.1f} spacings wide" if area < 0 else ""
+        print(f"  loop {i + 1} ({kind}): {len(loop)} points{wide}")
     if found.dropped:
-        print(f"  {len(found.dropped)} loop(s) of fewer than {found.min_loop} points dropped")
+        narrower = f" or holes narrower than {found.min_width:g} spacings" if found.min_width else ""
+        print(f"  {len(found.dropped)} loop(s) of fewer than {found.min_loop} points{narrower} "
+              "dropped")
     return EXIT_OK
 
 

@@ -13,6 +13,7 @@ from ..config import get_preset
 from ..errors import InputError
 from ..io import read_points
 from ..train import parametrize
+from .boundary import add_min_width
 from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, int_at_least, load_free_map,
                       run_command, standalone_parser)
 
@@ -44,6 +45,7 @@ Needs gmsh (pip install 'gmsh>=4.11').
 def configure(p) -> None:
     """Add ``reconstruct``'s arguments to ``p``."""
     add_cloud_and_map(p)
+    add_min_width(p)
     p.add_argument("--size", choices=SIZES, default="uniform",
                    help="mesh size rule: uniform (default), or adaptive: size proportional to "
                         "lambda_inv^-1/2 of the map (finer where the map compresses the "
@@ -71,7 +73,7 @@ def run(args) -> int:
         result = parametrize(points, "free", config=get_preset("fast"),
                              progress=not args.quiet)
 
-    loops = detect_boundary(result.uv)
+    loops = detect_boundary(result.uv, points=points, min_width=args.min_width)
     if not loops.loops:
         raise InputError(f"{args.input}: its map has no boundary loop of {loops.min_loop} points "
                          f"or more ({len(loops.dropped)} smaller ones dropped); the "
