@@ -145,7 +145,7 @@ def disk_rows(seeds, work: Path) -> list[dict]:
     return rows
 
 
-def smile_rows(seed: int, work: Path) -> list[dict]:
+def smile_rows(seed: int, work: Path, landmarks: bool = True) -> list[dict]:
     from face_smile import cloud_holes, domain_holes, hole_landmarks, landing
 
     from pcgeom import ParamResult, get_domain, read_points
@@ -171,7 +171,7 @@ def smile_rows(seed: int, work: Path) -> list[dict]:
         return U, land
 
     U, land = row(run_param(src, "smile", work / "smile.npz", seed=seed), "pcgeom `fast`")
-    if not land["all_land"]:
+    if landmarks and not land["all_land"]:
         pairs, names = hole_landmarks(cloud.points, U, holes, targets)
         marks = work / "smile_landmarks.json"
         marks.write_text(json.dumps([{"points": P.tolist(), "targets": Q.tolist()}
@@ -306,7 +306,11 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", nargs="*", type=int, default=[0, 1, 2],
                    help="seeds of the disk runs (default: 0 1 2)")
     p.add_argument("--skip", nargs="*", default=[], choices=["disk", "smile", "car"])
-    p.add_argument("--car-points", type=int, default=5000)
+    p.add_argument("--car-points", type=int, default=2500,
+                   help="domain samples of the car shell (examples/car.py; default: 2500)")
+    p.add_argument("--smile-landmarks", choices=("auto", "never"), default="auto",
+                   help="auto: a second smile run with the holes as landmarks when the first "
+                        "does not land every hole (default: auto)")
     p.add_argument("--streams", type=int, default=3,
                    help="groups (disk, smile, car) run at once (default: 3)")
     p.add_argument("--out", type=Path, default=REPO / "BENCHMARKS.md")
@@ -317,7 +321,7 @@ def main(argv=None) -> int:
 
     with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(args.streams) as pool:
         work = Path(tmp)
-        jobs = {"smile": lambda: smile_rows(0, work),
+        jobs = {"smile": lambda: smile_rows(0, work, args.smile_landmarks == "auto"),
                 "car": lambda: car_rows(0, args.car_points, work),
                 "disk": lambda: disk_rows(args.seeds, work)}
         futures = {name: pool.submit(job) for name, job in jobs.items()

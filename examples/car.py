@@ -117,7 +117,7 @@ def car_shell(n: int, seed: int = 0):
 def main(argv=None) -> int:
     p = _common.parser(__doc__.splitlines()[0])
     p.add_argument("--points", type=int, default=None,
-                   help="domain samples of the shell (default: 5000; 1500 with --quick)")
+                   help="domain samples of the shell (default: 2500; 1500 with --quick)")
     args = p.parse_args(argv)
     out = _common.out_dir(args.out)
     threads = _common.threads()
@@ -127,7 +127,7 @@ def main(argv=None) -> int:
     from pcgeom.io.landmarks import sample_polyline
     from pcgeom.metrics import hausdorff
 
-    V, F, edges = car_shell(args.points or (1500 if args.quick else 5000), seed=args.seed)
+    V, F, edges = car_shell(args.points or (1500 if args.quick else 2500), seed=args.seed)
     targets = np.vstack([sample_polyline(line, TARGET_SPACING) for line in TARGET_LINES])
     write_ply_atomic(out / "car_shell.ply", V, F)
     marks = [{"indices": edges.tolist(), "polylines": TARGET_LINES, "spacing": TARGET_SPACING}]
