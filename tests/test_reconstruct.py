@@ -16,7 +16,8 @@ import pcgeom.cli.reconstruct as reconstruct_command
 from pcgeom import InputError, cli, get_domain, parametrize
 from pcgeom.apps.baselines import lscm
 from pcgeom.apps.boundary import detect_boundary
-from pcgeom.apps.reconstruct import lift, mesh_report, reconstruct_surface
+from pcgeom.apps.reconstruct import (lift, mesh_report, reconstruct_on_domain,
+                                     reconstruct_surface)
 from pcgeom.cloud import fingerprint
 from pcgeom.examples import _BUMPS, peaks_surface
 from pcgeom.io import read_points
@@ -322,7 +323,17 @@ def test_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, sheet, m
     _fails(capsys, ["reconstruct", str(src), "--map", str(moved), "--out", str(out)],
            "moved.npz: was made from another cloud than")
     _fails(capsys, ["reconstruct", str(src), "--map", str(disk), "--out", str(out)],
-           "was trained onto the domain 'disk'")
+           "was trained onto the domain 'disk'; surface reconstruction needs a free-boundary "
+           "map (pcgeom param without --domain) or --domain with the map's domain")
+    _fails(capsys, ["reconstruct", str(src), "--map", str(disk), "--domain", "square",
+                    "--out", str(out)],
+           "disk.npz: was trained onto the domain 'disk', not 'square' (--domain)")
+    _fails(capsys, ["reconstruct", str(src), "--map", str(disk), "--domain", "disk:2",
+                    "--out", str(out)], "not 'disk:2.0' (--domain)")
+    _fails(capsys, ["reconstruct", str(src), "--map", str(map_path), "--domain", "disk",
+                    "--out", str(out)],
+           "map.npz: is a free-boundary map, not a map onto 'disk' (--domain); drop --domain")
+    _fails(capsys, ["reconstruct", str(src), "--domain", "blob", "--out", str(out)], "blob")
     _fails(capsys, ["reconstruct", str(src), "--map", str(map_path), "--out",
                     str(tmp_path / "nowhere" / "mesh.ply")], "does not exist")
     _fails(capsys, ["reconstruct", str(src)], "the following arguments are required: --out")
@@ -438,3 +449,75 @@ def test_cli_without_a_map_trains_first(tmp_path, capsys, monkeypatch):
     assert summary["edge_manifold"] and summary["n_boundary_loops"] >= 1
     assert len(read_points(out).points) == summary["n_vertices"]
     assert captured.err == ""  # --quiet: no progress bars
+
+
+# --------------------------------------------------------------------------- onto a domain
+
+
+def _bump(x, y):
+    """The analytic height field of the domain tests."""
+    return 0.4 * np.exp(-((x - 0.2) ** 2 + y**2) / 0.2) + 0.1 * x * y
+
+
+def test_height_field_on_the_disk_is_rebuilt_on_the_disk_within_its_interpolation_error():
+    disk = get_domain("disk")
+    U = disk.sample(1500)  # the map, analytically: the height field over the unit disk
+    P = np.column_stack([U, _bump(U[:, 0], U[:, 1])])
+    V, F, report = reconstruct_on_domain(P, U, disk, target_vertices=600)
+    _assert_clean(report, 1)
+    assert report["n_domain_loops"] == 1 and report["domain"] == "disk"
+    assert 480 <= report["n_vertices"] <= 720
+    # Every vertex on the true surface up to the piecewise-linear interpolation error of the
+    # cloud's spacing (0.044): the vertical gap bounds the distance (measured 0.0018).
+    assert np.abs(V[:, 2] - _bump(V[:, 0], V[:, 1])).max() < 0.005
+    # The mesh's boundary is the disk's circle, lifted onto the rim of the cloud: the vertices
+    # outside the mapped points' hull take the nearest hull point (measured radius >= 0.985).
+    rim = igl.boundary_loop_all(F)[0]
+    radius = np.linalg.norm(V[rim, :2], axis=1)
+    assert radius.max() <= 1.0 and radius.min() > 1.0 - 0.044
+    assert report["n_outside"] == len(rim)  # the circle lies outside the sample's hull
+
+
+def test_every_loop_of_a_domain_is_a_loop_of_the_mesh():
+    annulus = get_domain("annulus")
+    U = annulus.sample(1200)
+    P = np.column_stack([U, _bump(U[:, 0], U[:, 1])])
+    V, F, report = reconstruct_on_domain(P, U, annulus, size="adaptive", target_vertices=400,
+                                         lambda_inv=1.0 + U[:, 0] ** 2)
+    _assert_clean(report, 2)
+    # The inner circle lies inside the hull of the mapped points: its vertices interpolate
+    # over Delaunay triangles spanning the hole (measured 0.0084).
+    assert np.abs(V[:, 2] - _bump(V[:, 0], V[:, 1])).max() < 0.02
+
+
+def test_domain_reconstruction_refuses_a_free_domain_and_bad_input():
+    U = get_domain("disk").sample(200)
+    P = np.column_stack([U, np.zeros(len(U))])
+    with pytest.raises(InputError, match="domain: expected a bounded domain, got 'free'"):
+        reconstruct_on_domain(P, U, get_domain("free"))
+    with pytest.raises(TypeError, match="domain: expected a Domain"):
+        reconstruct_on_domain(P, U, "disk")
+    with pytest.raises(InputError, match=r"U: expected 200 rows \(one per point\), got 199"):
+        reconstruct_on_domain(P, U[:-1], get_domain("disk"))
+    with pytest.raises(InputError, match="lambda_inv: needed by size='adaptive'"):
+        reconstruct_on_domain(P, U, get_domain("disk"), size="adaptive")
+
+
+def test_cli_meshes_the_domain_of_a_disk_map(tmp_path, capsys, sheet):
+    src, _, P, result = sheet
+    # A map onto the disk, analytically: the sheet's xy scaled into the unit disk.
+    uv = P[:, :2] - P[:, :2].mean(axis=0)
+    uv /= 1.05 * np.linalg.norm(uv, axis=1).max()
+    disk_map = replace(result, uv=uv, domain=get_domain("disk")).save(tmp_path / "disk.npz")
+    out = tmp_path / "disk_mesh.ply"
+    code = cli.main(["reconstruct", str(src), "--map", str(disk_map), "--domain", "disk",
+                     "--target-vertices", "300", "--out", str(out), "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    summary = json.loads(captured.out)
+    assert summary["domain"] == "disk" and summary["n_boundary_loops"] == 1
+    assert summary["edge_manifold"] and summary["oriented"]
+    mesh = read_points(out)
+    assert len(mesh.points) == summary["n_vertices"]
+    # The sheet is the plane z = 0.1 x: every lifted vertex stays on it.
+    np.testing.assert_allclose(mesh.points[:, 2], 0.1 * mesh.points[:, 0], atol=1e-12)

@@ -1,4 +1,6 @@
-"""Surface reconstruction from a free-boundary map (the paper's section 8, remeshing).
+"""Surface reconstruction from a map (the paper's section 8, remeshing): a free-boundary
+map, meshed inside its detected loops (below), or a map onto a bounded domain, meshed on the
+domain itself (:func:`reconstruct_on_domain`).
 
 1. Mesh the region of the map inside the detected loops (the outer loop minus the holes)
    with gmsh, every loop point a mesh vertex, so the mesh's boundary is the detected one.
@@ -67,7 +69,8 @@ from ..errors import InputError
 from ..io import check_writable, write_atomic, write_ply_atomic
 from .boundary import BoundaryLoops, _validate_map
 
-__all__ = ["reconstruct_surface", "lift", "mesh_region", "mesh_report", "SIZES",
+__all__ = ["reconstruct_surface", "reconstruct_on_domain", "lift", "mesh_region",
+           "mesh_domain", "map_delaunay", "mesh_report", "SIZES",
            "require_gmsh", "MESH_FORMATS", "check_mesh_path", "write_mesh"]
 
 SIZES = ("uniform", "adaptive")
@@ -413,33 +416,47 @@ def mesh_region(U, loops: BoundaryLoops, target_vertices: int,
     area = sum(_polygon_area(p) for part in polygons for p in part)  # holes: negative
     if area <= 0:
         raise InputError("loops: the holes cover the outer loop; the reconstruction would be empty")
-    relative = None
-    density = 1.0  # mean of relative_size^-2: vertices per area scale with it
-    if relative_size is not None:
-        from scipy.spatial import cKDTree
+    relative, density = _relative(U, relative_size)
+    return _mesh_to_target(lambda size: polygons, area, target_vertices, relative, density)
 
-        r = np.asarray(relative_size, dtype=np.float64)
-        if r.shape != (len(U),) or not (np.isfinite(r).all() and (r > 0).all()):
-            raise InputError(f"relative_size: expected {len(U)} finite positive values")
-        tree, k = cKDTree(U), min(8, len(U))
 
-        def relative(x: float, y: float) -> float:
-            return r[tree.query((x, y), k=k)[1]].mean()
+def _relative(U: np.ndarray, relative_size):
+    """The size callback of a relative size given at the map points (the mean of the 8
+    nearest points' values) and the mean of its inverse square, or (None, 1) for uniform."""
+    if relative_size is None:
+        return None, 1.0
+    from scipy.spatial import cKDTree
 
-        density = float(np.mean(r**-2.0))
+    r = np.asarray(relative_size, dtype=np.float64)
+    if r.shape != (len(U),) or not (np.isfinite(r).all() and (r > 0).all()):
+        raise InputError(f"relative_size: expected {len(U)} finite positive values")
+    tree, k = cKDTree(U), min(8, len(U))
+
+    def relative(x: float, y: float) -> float:
+        return r[tree.query((x, y), k=k)[1]].mean()
+
+    return relative, float(np.mean(r**-2.0))  # vertices per area scale with r^-2
+
+
+def _mesh_to_target(polygons_at, area: float, target_vertices: int, relative,
+                    density: float) -> tuple[np.ndarray, np.ndarray]:
+    """gmsh meshes of ``polygons_at(size)`` (the parts to mesh at element size ``size``)
+    with the size corrected until the vertex count is within 10% of ``target_vertices``
+    (at most three meshes; module docstring)."""
     size = np.sqrt(2.0 * area * density / (np.sqrt(3.0) * target_vertices))
-    Q, T = _gmsh_mesh(polygons, size, relative)
+    Q, T = _gmsh_mesh(polygons_at(size), size, relative)
     if abs(len(Q) - target_vertices) <= 0.1 * target_vertices:
         return Q, T
     # Correct from the measured count: first with the interior's law (count ~ size^-2), then,
     # if still off by more than 10%, with the exponent measured between the two meshes (the
     # fixed loop points make the count fall slower than size^-2).
     size1 = size * np.sqrt(len(Q) / target_vertices)
-    Q1, T1 = _gmsh_mesh(polygons, size1, relative)
+    Q1, T1 = _gmsh_mesh(polygons_at(size1), size1, relative)
     if abs(len(Q1) - target_vertices) <= 0.1 * target_vertices or len(Q1) == len(Q):
         return Q1, T1
     p = float(np.clip(np.log(len(Q1) / len(Q)) / np.log(size / size1), 0.5, 3.0))
-    return _gmsh_mesh(polygons, size1 * (len(Q1) / target_vertices) ** (1.0 / p), relative)
+    size2 = size1 * (len(Q1) / target_vertices) ** (1.0 / p)
+    return _gmsh_mesh(polygons_at(size2), size2, relative)
 
 
 def lift(points, U, triangles, Q) -> tuple[np.ndarray, np.ndarray]:
@@ -603,24 +620,10 @@ def reconstruct_surface(points, U, loops: BoundaryLoops, *, size: str = "uniform
     ImportError
         gmsh is not installed (the message names the install command).
     """
-    if size not in SIZES:
-        raise InputError(f"size: expected one of {', '.join(SIZES)}, got {size!r}")
-    P = validate_points(points, name="points")
-    U = _validate_map(U)
-    if len(U) != len(P):
-        raise InputError(f"U: expected {len(P)} rows (one per point), got {len(U)}")
+    P, U, relative = _checked_input(points, U, size, lambda_inv)
     if not isinstance(loops, BoundaryLoops):
         raise TypeError(f"loops: expected BoundaryLoops (from detect_boundary), "
                         f"got {type(loops).__name__}")
-    relative = None
-    if size == "adaptive":
-        if lambda_inv is None:
-            raise InputError("lambda_inv: needed by size='adaptive' (ParamResult.lambda_inv)")
-        lam = np.asarray(lambda_inv, dtype=np.float64)
-        if lam.shape != (len(P),) or not (np.isfinite(lam).all() and (lam > 0).all()):
-            raise InputError(f"lambda_inv: expected {len(P)} finite positive values, "
-                             f"got shape {lam.shape}")
-        relative = lam**-0.5
     try:
         Q, F = mesh_region(U, loops, target_vertices, relative)
     except Exception as exc:
@@ -630,4 +633,170 @@ def reconstruct_surface(points, U, loops: BoundaryLoops, *, size: str = "uniform
     V, outside = lift(P, U, loops.triangles, Q)
     report = mesh_report(V, F, P)
     report.update(n_outside=int(outside.sum()), size=size, target_vertices=int(target_vertices))
+    return V, F, report
+
+
+def _checked_input(points, U, size: str, lambda_inv) -> tuple[np.ndarray, np.ndarray, object]:
+    """The cloud, its map and the relative element size of ``size`` (None: uniform)."""
+    if size not in SIZES:
+        raise InputError(f"size: expected one of {', '.join(SIZES)}, got {size!r}")
+    P = validate_points(points, name="points")
+    U = _validate_map(U)
+    if len(U) != len(P):
+        raise InputError(f"U: expected {len(P)} rows (one per point), got {len(U)}")
+    if size != "adaptive":
+        return P, U, None
+    if lambda_inv is None:
+        raise InputError("lambda_inv: needed by size='adaptive' (ParamResult.lambda_inv)")
+    lam = np.asarray(lambda_inv, dtype=np.float64)
+    if lam.shape != (len(P),) or not (np.isfinite(lam).all() and (lam > 0).all()):
+        raise InputError(f"lambda_inv: expected {len(P)} finite positive values, "
+                         f"got shape {lam.shape}")
+    return P, U, lam**-0.5
+
+
+CORNER_DEG = 15.0
+"""A domain polyline's vertex where it turns by more than this is a corner, kept when the
+polyline is resampled to the element size (:func:`mesh_domain`)."""
+
+
+def _resample(loop: np.ndarray, size: float) -> np.ndarray:
+    """A closed polyline (last row = first) resampled by arc length to about one point per
+    ``size``, through its corners (turns over :data:`CORNER_DEG`); at least 3 points."""
+    ring = loop[:-1] if np.allclose(loop[0], loop[-1]) else loop
+    d_out = np.roll(ring, -1, axis=0) - ring
+    d_in = ring - np.roll(ring, 1, axis=0)
+    turn = np.abs(np.arctan2(d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0],
+                             np.einsum("ij,ij->i", d_in, d_out)))
+    corners = np.flatnonzero(turn > np.radians(CORNER_DEG))
+    if len(corners) == 0:
+        corners = np.array([0])
+    out = []
+    for a, b in zip(corners, np.roll(corners, -1)):
+        # The run of polyline from corner a to the next corner b (all the way round if one).
+        idx = np.arange(a, a + ((b - a) % len(ring) or len(ring)) + 1) % len(ring)
+        run = ring[idx]
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(run, axis=0), axis=1))])
+        n = max(1, int(round(s[-1] / size)), 3 if len(corners) == 1 else 1)
+        t = np.linspace(0.0, s[-1], n + 1)[:-1]  # the next corner starts the next run
+        out.append(np.column_stack([np.interp(t, s, run[:, 0]), np.interp(t, s, run[:, 1])]))
+    return np.concatenate(out)
+
+
+def mesh_domain(domain, target_vertices: int, U=None,
+                relative_size=None) -> tuple[np.ndarray, np.ndarray]:
+    """Triangulate a bounded domain with about ``target_vertices`` vertices.
+
+    The domain's boundary polylines (:meth:`pcgeom.domains.Domain.boundary_loops`; arcs are
+    fine polylines) are resampled to the element size through their corners, so the mesh
+    size does not depend on how finely the domain draws its arcs.
+
+    Parameters
+    ----------
+    domain : Domain
+        A bounded domain (``domain.bounded``).
+    target_vertices : int
+        Wanted vertex count (>= 3).
+    U : (N, 2) array_like, optional
+        Map points at which ``relative_size`` is given.
+    relative_size : (N,) array_like, optional
+        Relative element size at the points ``U`` (as in :func:`mesh_region`).
+
+    Returns
+    -------
+    Q : (K, 2) float64
+    T : (M, 3) int64
+        Counter-clockwise.
+    """
+    from ..domains import Domain
+
+    if not isinstance(domain, Domain):
+        raise TypeError(f"domain: expected a Domain (pcgeom.get_domain), "
+                        f"got {type(domain).__name__}")
+    if not domain.bounded:
+        raise InputError(f"domain: expected a bounded domain, got {domain.spec!r}; a "
+                         "free-boundary map is meshed inside its detected loops "
+                         "(reconstruct_surface)")
+    if (isinstance(target_vertices, bool) or not isinstance(target_vertices, (int, np.integer))
+            or target_vertices < 3):
+        raise InputError(f"target_vertices: expected an integer >= 3, got {target_vertices!r}")
+    loops = [np.asarray(loop, dtype=np.float64) for loop in domain.boundary_loops()]
+    relative, density = (None, 1.0) if relative_size is None else _relative(
+        _validate_map(U), relative_size)
+
+    def polygons_at(size: float) -> list[list[np.ndarray]]:
+        return _split_shared([[_resample(loop, size) for loop in loops]])
+
+    return _mesh_to_target(polygons_at, float(domain.area), target_vertices, relative, density)
+
+
+def map_delaunay(U) -> np.ndarray:
+    """The Delaunay triangles of a map ``U`` (N, 2), as its rows (a duplicated map point by
+    its first row), counter-clockwise. (M, 3) int64"""
+    from ..cloud import deduplicate
+    from .boundary import _delaunay
+
+    U = _validate_map(U)
+    unique, inverse = deduplicate(U)
+    if len(unique) < 3:
+        raise InputError(f"U: {len(unique)} distinct points (of {len(U)}), need at least 3")
+    row = np.empty(len(unique), dtype=np.int64)
+    row[inverse[::-1]] = np.arange(len(U))[::-1]  # first input row of each distinct point
+    return row[_delaunay(unique)]
+
+
+def reconstruct_on_domain(points, U, domain, *, size: str = "uniform",
+                          target_vertices: int = 5000, lambda_inv=None):
+    """Triangle mesh of the surface sampled by ``points``, remeshed on the bounded domain its
+    map was made onto (e.g. ``pcgeom param X --domain disk``).
+
+    1. The domain itself is meshed with gmsh (:func:`mesh_domain`), uniform or adaptive as in
+       :func:`reconstruct_surface`.
+    2. Each vertex is lifted to 3D by barycentric interpolation over the Delaunay
+       triangulation of the map (:func:`map_delaunay`, :func:`lift`). A vertex outside its
+       convex hull (between the mapped points and the domain's boundary) takes the nearest
+       point of the hull's edges, as in :func:`lift`: the rim of the mesh is then the rim of
+       the cloud, never extrapolated.
+
+    The mesh's boundary is the domain's: one loop per domain loop, edge-manifold and
+    counter-clockwise in the domain (so consistently oriented in 3D wherever the map is
+    one-to-one). Where the cloud has holes that the map does not leave open (a map onto a
+    disk covers the disk), the mesh bridges them.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like
+    U : (N, 2) array_like
+        Its map onto ``domain`` (``ParamResult.uv``).
+    domain : Domain
+        The bounded domain of the map (``ParamResult.domain``).
+    size, target_vertices, lambda_inv
+        As in :func:`reconstruct_surface`.
+
+    Returns
+    -------
+    V : (K, 3) float64
+    F : (M, 3) int64
+    report : dict
+        :func:`mesh_report`, plus ``n_outside``, ``n_domain_loops``, ``size``,
+        ``target_vertices`` and ``domain`` (its spec).
+
+    Raises
+    ------
+    InputError
+        Bad shapes, an unknown ``size``, a free (unbounded) domain.
+    ImportError
+        gmsh is not installed.
+    """
+    P, U, relative = _checked_input(points, U, size, lambda_inv)
+    try:
+        Q, F = mesh_domain(domain, target_vertices, U, relative)
+    except Exception as exc:
+        if isinstance(exc, (InputError, ImportError, TypeError)):
+            raise
+        raise InputError(f"gmsh could not mesh the domain: {_one_line(exc)}") from None
+    V, outside = lift(P, U, map_delaunay(U), Q)
+    report = mesh_report(V, F, P)
+    report.update(n_outside=int(outside.sum()), n_domain_loops=len(domain.boundary_loops()),
+                  size=size, target_vertices=int(target_vertices), domain=domain.spec)
     return V, F, report

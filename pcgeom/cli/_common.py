@@ -74,14 +74,17 @@ def add_cloud_and_map(p: argparse.ArgumentParser) -> None:
                         "INPUT first, preset fast)")
 
 
-def load_free_map(args, points, purpose: str):
-    """The ``ParamResult`` of ``args.map``, checked to be a free-boundary map of ``points``.
+def load_free_map(args, points, purpose: str, domain=None, hint: str = ""):
+    """The ``ParamResult`` of ``args.map``, checked to be a free-boundary map of ``points``,
+    or, with a bounded ``domain``, a map of ``points`` onto that very domain.
 
     Raises
     ------
     InputError
         Anything ``ParamResult.load`` refuses, a map of another cloud with as many points
-        (fingerprint), or a map trained onto a bounded domain (``purpose`` needs a free one).
+        (fingerprint), a map trained onto a bounded domain (``purpose`` needs a free one;
+        ``hint`` ends the message), or, with ``domain``, a map onto another domain or a free
+        map.
     """
     from ..cloud import fingerprint
     from ..io import ParamResult
@@ -90,9 +93,20 @@ def load_free_map(args, points, purpose: str):
     if result.fingerprint is not None and result.fingerprint != fingerprint(points):
         raise InputError(f"{args.map}: was made from another cloud than {args.input} "
                          "(same number of points, different coordinates)")
-    if result.domain is not None and result.domain.bounded:
-        raise InputError(f"{args.map}: was trained onto the domain {result.domain.spec!r}; "
-                         f"{purpose} needs a free-boundary map (pcgeom param without --domain)")
+    trained = result.domain if result.domain is not None and result.domain.bounded else None
+    if domain is not None and domain.bounded:
+        if trained is None:
+            raise InputError(f"{args.map}: is a free-boundary map, not a map onto "
+                             f"{domain.spec!r} (--domain); drop --domain, or map {args.input} "
+                             f"with pcgeom param --domain {domain.spec}")
+        if trained.to_dict() != domain.to_dict():
+            raise InputError(f"{args.map}: was trained onto the domain {trained.spec!r}, not "
+                             f"{domain.spec!r} (--domain)")
+        return result
+    if trained is not None:
+        raise InputError(f"{args.map}: was trained onto the domain {trained.spec!r}; "
+                         f"{purpose} needs a free-boundary map (pcgeom param without --domain)"
+                         + hint)
     return result
 
 

@@ -7,9 +7,10 @@ import os
 import sys
 
 from ..apps.boundary import detect_boundary
-from ..apps.reconstruct import (SIZES, check_mesh_path, reconstruct_surface, require_gmsh,
-                                 write_mesh)
+from ..apps.reconstruct import (SIZES, check_mesh_path, reconstruct_on_domain,
+                                 reconstruct_surface, require_gmsh, write_mesh)
 from ..config import get_preset
+from ..domains import get_domain
 from ..errors import InputError
 from ..io import read_points
 from ..train import parametrize
@@ -20,10 +21,11 @@ from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, int_at_least, 
 __all__ = ["configure", "run", "main"]
 
 NAME = "reconstruct"
-HELP = "triangle mesh of a point cloud, remeshed in its free-boundary map"
+HELP = "triangle mesh of a point cloud, remeshed in its map (free boundary or a domain)"
 DESCRIPTION = ("Reconstruct a surface mesh from a point cloud: detect the boundary loops on its "
                "free-boundary map, mesh the region inside them with gmsh, and lift the new "
-               "vertices to 3D by barycentric interpolation over the map's Delaunay triangles.")
+               "vertices to 3D by barycentric interpolation over the map's Delaunay triangles. "
+               "With --domain, mesh that domain instead (the map must be onto it).")
 EPILOG = """\
 examples:
   pcgeom reconstruct scan.ply --target-vertices 5000 --out scan_mesh.ply
@@ -32,9 +34,15 @@ examples:
       reuses a map written by 'pcgeom param scan.ply' (no --domain)
   pcgeom reconstruct scan.ply --map scan_uv.npz --size adaptive --out mesh.obj
       element size from the map's lambda (its file's lambda_inv); written as OBJ
+  pcgeom reconstruct scan.ply --domain disk --target-vertices 2000 --out disk_mesh.ply
+      maps the cloud onto the disk first (preset fast), then meshes the disk itself and lifts
+      it (one boundary loop, the circle's); with --map, a map that 'pcgeom param scan.ply
+      --domain disk' wrote
 
 The mesh is edge-manifold, counter-clockwise in the map (so consistently oriented), with one
-boundary loop per detected loop; every loop point of INPUT is a mesh vertex. The summary gives
+boundary loop per detected loop (per domain loop with --domain); every loop point of INPUT is
+a mesh vertex (without --domain). With --domain and no --map, INPUT is mapped onto the
+domain first (preset fast). The summary gives
 the distances from the mesh vertices to INPUT (vertex-to-point) over its bounding-box
 diagonal, the triangles' minimum angle and aspect ratio. Faces in INPUT are never used.
 The format follows the extension of --out: .ply (binary) or .obj (text, trimesh's exporter).
@@ -45,6 +53,9 @@ Needs gmsh (pip install 'gmsh>=4.11').
 def configure(p) -> None:
     """Add ``reconstruct``'s arguments to ``p``."""
     add_cloud_and_map(p)
+    p.add_argument("--domain", metavar="SPEC",
+                   help="mesh this bounded domain (as in 'pcgeom param --domain'; the map must "
+                        "be onto it) instead of the region inside the detected loops")
     add_min_width(p)
     p.add_argument("--size", choices=SIZES, default="uniform",
                    help="mesh size rule: uniform (default), or adaptive: size proportional to "
@@ -66,12 +77,18 @@ def run(args) -> int:
     points = read_points(args.input).points
     out = check_mesh_path(args.out)
     distinct_paths({"INPUT": args.input, "--map": args.map}, {"out": out})
+    domain = get_domain(args.domain) if args.domain is not None else None
+    if domain is not None and not domain.bounded:
+        domain = None  # --domain free: the free-boundary path
     require_gmsh()  # a missing gmsh fails here, before any training
     if args.map is not None:
-        result = load_free_map(args, points, "surface reconstruction")
+        result = load_free_map(args, points, "surface reconstruction", domain=domain,
+                               hint=" or --domain with the map's domain")
     else:
-        result = parametrize(points, "free", config=get_preset("fast"),
-                             progress=not args.quiet)
+        result = parametrize(points, domain if domain is not None else "free",
+                             config=get_preset("fast"), progress=not args.quiet)
+    if domain is not None:
+        return _on_domain(args, points, result, domain, out)
 
     loops = detect_boundary(result.uv, points=points, min_width=args.min_width)
     if not loops.loops:
@@ -93,14 +110,36 @@ def run(args) -> int:
         **report,
         "mapped_seconds": None if args.map is not None else float(result.seconds),
     }
+    return _print(args, points, report, summary, f"{len(loops.loops)} detected")
+
+
+def _on_domain(args, points, result, domain, out) -> int:
+    """The mesh of the domain itself, lifted over the map's Delaunay triangles."""
+    V, F, report = reconstruct_on_domain(points, result.uv, domain, size=args.size,
+                                         target_vertices=args.target_vertices,
+                                         lambda_inv=result.lambda_inv)
+    write_mesh(out, V, F)
+    summary = {
+        "command": "reconstruct",
+        "input": args.input,
+        "map": args.map,
+        "out": os.fspath(out),
+        "n_points": len(points),
+        **report,
+        "mapped_seconds": None if args.map is not None else float(result.seconds),
+    }
+    return _print(args, points, report, summary,
+                  f"{report['n_domain_loops']} in the domain {domain.spec}")
+
+
+def _print(args, points, report: dict, summary: dict, loops: str) -> int:
     if args.json:
         print(json.dumps(summary))
         return EXIT_OK
     print(f"{args.input}: {len(points)} points -> {report['n_vertices']} vertices, "
           f"{report['n_faces']} triangles -> {summary['out']}")
-    print(f"  boundary loops: {report['n_boundary_loops']} "
-          f"({len(loops.loops)} detected), edge-manifold: {report['edge_manifold']}, "
-          f"oriented: {report['oriented']}")
+    print(f"  boundary loops: {report['n_boundary_loops']} ({loops}), edge-manifold: "
+          f"{report['edge_manifold']}, oriented: {report['oriented']}")
     print(f"  vertex-to-cloud distance / diagonal: max {report['hausdorff_rel']:.4f}, "
           f"mean {report['mean_distance_rel']:.4f}")
     print(f"  triangles: min angle {report['min_angle_deg']:.1f} deg, "
