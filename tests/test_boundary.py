@@ -205,6 +205,24 @@ def test_min_loop_drops_small_loops_and_keeps_them_aside():
     assert [len(loop) for loop in detect_boundary(single, min_loop=3).loops] == [44]
 
 
+def test_cloud_spacing_opens_a_hole_that_the_map_shrank():
+    # A flat grid with a 6 x 6 hole, mapped with the hole shrunk: every point within 5 of the
+    # hole's centre pulled towards it, so the hole is barely a gap in the map.
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(20), np.arange(20), indexing="xy"))
+    keep = ~((i >= 7) & (i <= 12) & (j >= 7) & (j <= 12))
+    P = np.column_stack([i + 0.2 * j, j, np.zeros(len(i))]).astype(np.float64)[keep]
+    centre = np.array([9.5 + 0.2 * 9.5, 9.5])
+    d = P[:, :2] - centre
+    r = np.linalg.norm(d, axis=1, keepdims=True)
+    U = centre + d * np.where(r < 7.0, (r - 2.5) / (7.0 - 2.5) * 7.0 / r, 1.0).clip(0.1)
+    U[r[:, 0] >= 7.0] = P[r[:, 0] >= 7.0, :2]
+    plain = detect_boundary(U, points=P)
+    opened = detect_boundary(U, points=P, cloud_spacing=True)
+    assert len(plain.loops) == 1  # the map alone does not see it
+    assert len(opened.loops) == 2 and opened.areas[1] < 0
+    assert len(opened.loops[1]) >= 24  # along the 28 grid points around the hole (32 found)
+
+
 def test_min_width_measures_holes_on_the_surface_and_drops_the_narrow_ones():
     from pcgeom.apps.boundary import hole_width
 
@@ -253,6 +271,7 @@ def test_min_width_measures_holes_on_the_surface_and_drops_the_narrow_ones():
     ({"points": np.full((50, 3), np.nan)}, "points: contains NaN or inf"),
     ({"points": np.zeros((50, 3)), "min_width": -1},
      "min_width: expected a non-negative number, got -1.0"),
+    ({"cloud_spacing": True}, r"cloud_spacing: needs the cloud \(points\)"),
 ])
 def test_bad_input_is_one_line_input_error(kwargs, message):
     args = {"U": get_domain("disk").sample(50), **kwargs}

@@ -36,6 +36,9 @@ examples:
   pcgeom boundary scan.ply --map scan_uv.npz --min-width 1 --out loops.json
       also drop holes narrower on the surface than one point spacing (sampling gaps of an
       unevenly sampled scan; a true hole only ~3 spacings across goes too)
+  pcgeom boundary scan.ply --map scan_uv.npz --cloud-spacing --min-width 1 --out loops.json
+      an evenly sampled scan whose small holes the map shrank: triangles are also judged in
+      3D against the cloud's spacing (peaks_7holes_choi: 8 loops instead of 3)
 
 LOOPS.json holds {{"loops": [[i0, i1, ...], ...], "h": ..., ...}}: each loop as rows of INPUT
 (from 0), outer loop first (counter-clockwise in the map), then the holes by size. Without
@@ -68,12 +71,16 @@ def _non_negative_float(text: str) -> float:
     return value
 
 
-def add_min_width(p: argparse.ArgumentParser) -> None:
-    """``--min-width``, shared with ``pcgeom reconstruct``."""
+def add_hole_options(p: argparse.ArgumentParser) -> None:
+    """``--min-width`` and ``--cloud-spacing``, shared with ``pcgeom reconstruct``."""
     p.add_argument("--min-width", type=_non_negative_float, default=DEFAULT_MIN_WIDTH,
                    metavar="W",
                    help="drop holes narrower on the surface than W local point spacings "
                         f"(default: {DEFAULT_MIN_WIDTH:g}, keep every hole)")
+    p.add_argument("--cloud-spacing", action="store_true",
+                   help="also open holes that the map shrank, judging each triangle in 3D "
+                        "against the cloud's own point spacing (for evenly sampled clouds; "
+                        "see pcgeom.apps.boundary)")
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -82,7 +89,7 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--h", type=_positive_float, metavar="H",
                    help="remove every triangle with an edge longer than H in the map (the "
                         "paper's rule; default: a rule from the local point spacing)")
-    add_min_width(p)
+    add_hole_options(p)
     p.add_argument("--out", required=True, metavar="LOOPS.json", help="the loops, as JSON")
     p.add_argument("--plot", metavar="LOOPS.png",
                    help="also draw the map with the loops and the removed triangles")
@@ -105,7 +112,8 @@ def run(args) -> int:
         result = parametrize(points, "free", config=get_preset("fast"),
                              progress=not args.quiet)
 
-    found = detect_boundary(result.uv, h=args.h, points=points, min_width=args.min_width)
+    found = detect_boundary(result.uv, h=args.h, points=points, min_width=args.min_width,
+                            cloud_spacing=args.cloud_spacing)
     document = {**found.to_dict(), "input": args.input, "n_points": len(points)}
     write_atomic(out, lambda f: f.write(json.dumps(document).encode("utf-8")))
     if plot is not None:
@@ -124,6 +132,7 @@ def run(args) -> int:
         "c": found.c,
         "min_loop": found.min_loop,
         "min_width": found.min_width,
+        "cloud_spacing": bool(args.cloud_spacing),
         "n_loops": len(found.loops),
         "loop_points": [len(loop) for loop in found.loops],
         "hole_widths": found.to_dict()["widths"],

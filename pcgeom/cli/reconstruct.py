@@ -14,7 +14,7 @@ from ..domains import get_domain
 from ..errors import InputError
 from ..io import read_points
 from ..train import parametrize
-from .boundary import add_min_width
+from .boundary import add_hole_options
 from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, int_at_least, load_free_map,
                       run_command, standalone_parser)
 
@@ -56,7 +56,7 @@ def configure(p) -> None:
     p.add_argument("--domain", metavar="SPEC",
                    help="mesh this bounded domain (as in 'pcgeom param --domain'; the map must "
                         "be onto it) instead of the region inside the detected loops")
-    add_min_width(p)
+    add_hole_options(p)
     p.add_argument("--size", choices=SIZES, default="uniform",
                    help="mesh size rule: uniform (default), or adaptive: size proportional to "
                         "lambda_inv^-1/2 of the map (finer where the map compresses the "
@@ -90,7 +90,8 @@ def run(args) -> int:
     if domain is not None:
         return _on_domain(args, points, result, domain, out)
 
-    loops = detect_boundary(result.uv, points=points, min_width=args.min_width)
+    loops = detect_boundary(result.uv, points=points, min_width=args.min_width,
+                            cloud_spacing=args.cloud_spacing)
     if not loops.loops:
         raise InputError(f"{args.input}: its map has no boundary loop of {loops.min_loop} points "
                          f"or more ({len(loops.dropped)} smaller ones dropped); the "
