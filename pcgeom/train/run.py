@@ -106,7 +106,9 @@ def parametrize(
         Oriented normals, one per row of ``points`` (checked with
         :func:`pcgeom.cloud.validate_normals`). They keep the two sheets of a surface that
         doubles back apart: the local-mesh map builds its fans from same-sheet neighbours,
-        and the refinement drops pairs whose normals disagree. Without them, the local-mesh
+        the network stages give LEG pairs whose normals disagree weight 0 (when
+        ``config.schedule.drop_cross_sheet``, as in ``networks`` and ``fast``), and the
+        refinement drops those pairs from its neighbour lists. Without them, the local-mesh
         map estimates and orients normals (:mod:`pcgeom.normals`), and the map may fold where
         sheets touch.
 
