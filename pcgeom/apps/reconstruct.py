@@ -49,8 +49,11 @@ not fail: it runs on). Such loops are repaired first: the region is the outer po
 the union of the holes, each made valid by shapely (``make_valid``), shrunk by a thousandth
 of the median loop edge (:data:`REPAIR_SHRINK`) so that no two rings share a point (a hole
 that touched the rim then opens into it), and meshed part by part, largest first, without
-the slivers under a hundredth of the largest part (:data:`REPAIR_MIN_PART`); the mesh's loops
-are then those of the repaired region, which the report counts. On face_human_choi as a bare cloud (its ``fast`` map folds 3.45% of the triangles),
+the slivers under a hundredth of the largest part (:data:`REPAIR_MIN_PART`), and with the
+ring points closer than a fifth of the median loop edge to their predecessor merged away
+where the region stays valid (:data:`REPAIR_MIN_EDGE`: crossings leave such short edges, and
+gmsh slivers at them); the mesh's loops are then those of the repaired region, which the
+report counts. On face_human_choi as a bare cloud (its ``fast`` map folds 3.45% of the triangles),
 11 pairs of its 19 detected holes overlap and 4 cross themselves.
 
 Orientation: every triangle is counter-clockwise in the map, so the 3D mesh is consistently
@@ -184,6 +187,10 @@ REPAIR_SHRINK = 1e-3
 """Loops that cross (a folded map) are repaired into a region shrunk by this fraction of the
 median loop edge, so that its rings share no point."""
 
+REPAIR_MIN_EDGE = 0.2
+"""In a repaired region, ring points closer than this fraction of the median loop edge to
+the previous point are merged away (the crossings leave such edges; gmsh slivers at them)."""
+
 REPAIR_MIN_PART = 0.01
 """Parts of a repaired region smaller than this fraction of the largest are left out (the
 slivers between crossing loops)."""
@@ -219,10 +226,30 @@ def _polygons(U: np.ndarray, loops: BoundaryLoops) -> list[list[np.ndarray]]:
     edge = float(np.median(np.concatenate([np.linalg.norm(np.roll(r, -1, axis=0) - r, axis=1)
                                            for r in rings])))
     parts = _repaired(rings, REPAIR_SHRINK * edge)
+    # Crossing points make edges far shorter than the spacing, and gmsh slivers at them:
+    # merge them away where the region stays valid.
+    for i, part in enumerate(parts):
+        for j in range(len(part)):  # ring by ring, each merge kept if its part stays valid
+            trial = part[:j] + [_merge_short(part[j], REPAIR_MIN_EDGE * edge)] + part[j + 1:]
+            if _valid([trial]):
+                part = trial
+        parts[i] = part
     if not _valid(parts):
         raise InputError("loops: the region inside the loops could not be made into simple "
                          "polygons for gmsh (the map folds there)")
     return parts
+
+
+def _merge_short(ring: np.ndarray, min_edge: float) -> np.ndarray:
+    """``ring`` without the points closer than ``min_edge`` to the previous kept point (at
+    least 3 points stay)."""
+    keep = [0]
+    for k in range(1, len(ring)):
+        if np.linalg.norm(ring[k] - ring[keep[-1]]) >= min_edge:
+            keep.append(k)
+    if len(keep) > 1 and np.linalg.norm(ring[keep[-1]] - ring[0]) < min_edge:
+        keep.pop()
+    return ring[keep] if len(keep) >= 3 else ring
 
 
 def _valid(parts: list[list[np.ndarray]]) -> bool:
@@ -404,7 +431,8 @@ def mesh_region(U, loops: BoundaryLoops, target_vertices: int,
     Returns
     -------
     Q : (K, 2) float64
-        Vertices in the map; the loops' points are among them.
+        Vertices in the map; the loops' points are among them (moved a little where loops
+        touch or cross: module docstring).
     T : (M, 3) int64
         Triangles, counter-clockwise in the map.
     """
