@@ -2,17 +2,32 @@
 pymeshlab's ball pivoting and screened Poisson reconstructions of the same clouds.
 
 For each surface of ``../shared/data`` (face_3holes_small_choi, face_human_choi,
-peaks_7holes_choi; absent files are skipped), the reference mesh's faces are dropped and:
+peaks_7holes_choi; absent files are skipped), the reference mesh's faces are dropped, and each
+of two inputs is benchmarked:
 
-1. a free-boundary map: a ``--map NAME=PATH`` given on the command line, else
-   ``WORK/NAME_uv.npz`` when a previous run left it there, else
-   ``python -m pcgeom param INPUT --preset fast --out WORK/NAME_uv.npz --quiet --json``
-   (the slow part: about 1-3 minutes per surface on two CPU cores);
+- **normals**: ``WORK/NAME_normals.ply``, the points with the reference mesh's oriented vertex
+  normals (trimesh's area-weighted ones) as PLY ``nx ny nz``, as a scanner writes them; this
+  is what a user with such a file gets by default (``pcgeom param`` uses a file's normals,
+  ``--normals auto``);
+- **bare**: the shared file itself, which has no normals (they are estimated and oriented by
+  propagation; the map can fold where sheets touch).
+
+For each input:
+
+1. a free-boundary map: a ``--map NAME=PATH`` given on the command line (for the bare input),
+   else ``WORK/NAME_INPUT_uv.npz`` when a previous run left it there, else
+   ``python -m pcgeom param INPUT --preset fast --out WORK/NAME_INPUT_uv.npz --quiet --json``;
 2. ``python -m pcgeom boundary INPUT --map MAP --out ... --quiet --json``: the loops, scored
    against the boundary of the reference mesh (precision and recall of boundary points, loop
-   counts, true loops recovered one-to-one);
+   counts, true loops recovered one-to-one); again with ``--min-width 1`` (holes narrower on
+   the surface than one point spacing dropped) and with ``--cloud-spacing --min-width 1``
+   (triangles also judged in 3D against the cloud's spacing); neither is the default, see
+   pcgeom.apps.boundary;
 3. ``python -m pcgeom reconstruct INPUT --map MAP --target-vertices N --out ... --quiet
-   --json``: the mesh, scored against the reference mesh.
+   --json``: the mesh, scored against the reference mesh;
+4. for a surface with one boundary loop (a disk), also the map onto the disk
+   (``pcgeom param INPUT --domain disk``) and ``pcgeom reconstruct INPUT --map DISK_MAP
+   --domain disk``: the disk itself meshed and lifted.
 
 Each command is a subprocess timed from the outside, so its time includes Python and torch
 start-up (measured separately and reported). pymeshlab's filters are timed in this process,
@@ -76,6 +91,9 @@ TARGETS = {
 """The issue's targets, quoted beside the measurements."""
 
 SECTION = "bench_apps"
+
+INPUTS = ("normals", "bare")
+"""The two inputs of each surface, in report order (module docstring)."""
 
 
 def log(msg: str) -> None:
@@ -240,23 +258,100 @@ def meshlab_reconstructions(P: np.ndarray) -> list[dict]:
 # --------------------------------------------------------------------------- one surface
 
 
-def get_map(name: str, src: Path, given: dict[str, Path], work: Path) -> dict:
-    """The free-boundary map of ``src``: given, cached in ``work`` or computed (timed)."""
-    if name in given:
-        return {"path": given[name], "how": f"given ({given[name].name})", "seconds": None}
-    path = work / f"{name}_uv.npz"
+def get_map(name: str, src: Path, given: Path | None, work: Path, domain: str | None = None
+            ) -> dict:
+    """The map of ``src`` (free boundary, or onto ``domain``): given, cached in ``work`` or
+    computed (timed)."""
+    if given is not None:
+        return {"path": given, "how": f"given ({given.name})", "seconds": None}
+    path = work / (f"{src.stem}_uv.npz" if domain is None else f"{src.stem}_{domain}_uv.npz")
+    how = "pcgeom param --preset fast" + (f" --domain {domain}" if domain else "")
     if path.exists():
         return {"path": path, "how": f"{path.name}, reused from an earlier run",
                 "seconds": None}
-    log(f"{name}: pcgeom param --preset fast (free boundary) ...")
+    log(f"{name}: {how} ({src.name}) ...")
     out, wall, error = run_pcgeom(["param", os.fspath(src), "--preset", "fast", "--out",
-                                   os.fspath(path)])
+                                   os.fspath(path)] + (["--domain", domain] if domain else []))
     if error:
-        return {"path": None, "how": "pcgeom param --preset fast", "seconds": wall,
-                "error": error}
-    log(f"{name}: map in {wall:.0f} s")
-    return {"path": path, "how": "pcgeom param --preset fast", "seconds": wall,
-            "train_seconds": out["seconds"]}
+        return {"path": None, "how": how, "seconds": wall, "error": error}
+    log(f"{name}: map in {wall:.0f} s, normals {out['normals']}")
+    return {"path": path, "how": how, "seconds": wall, "train_seconds": out["seconds"],
+            "normals": out["normals"]}
+
+
+def bench_boundary(name: str, src: Path, map_path: str, extra: list[str], work: Path,
+                   true_vertices, true_loops) -> dict:
+    """``pcgeom boundary`` with ``extra`` arguments, scored."""
+    loops_path = work / f"{src.stem}_loops.json"
+    out, wall, error = run_pcgeom(["boundary", os.fspath(src), "--map", map_path, "--out",
+                                   os.fspath(loops_path), *extra])
+    row = {"args": " ".join(extra), "seconds": wall, "error": error}
+    if not error:
+        found = json.loads(loops_path.read_text())["loops"]
+        row.update(boundary_scores(found, true_vertices, true_loops), n_dropped=out["n_dropped"])
+    return row
+
+
+def bench_reconstruct(label: str, src: Path, map_path: str, extra: list[str], work: Path,
+                      target: int, size: str) -> dict:
+    """``pcgeom reconstruct`` with ``extra`` arguments; the mesh read back (scored later)."""
+    mesh_path = work / f"{src.stem}{'_' + extra[-1] if extra else ''}_mesh.ply"
+    out, wall, error = run_pcgeom(["reconstruct", os.fspath(src), "--map", map_path,
+                                   "--target-vertices", str(target), "--size", size,
+                                   "--out", os.fspath(mesh_path), *extra])
+    row = {"method": label, "seconds": wall, "error": error}
+    if not error:
+        mesh = read_points(mesh_path)
+        row.update(V=mesh.points, F=mesh.faces)
+    return row
+
+
+def bench_input(name: str, kind: str, src: Path, args, work: Path, P, Ft, diag,
+                true_vertices, true_loops) -> dict:
+    """The map, boundary and reconstructions of one input of a surface."""
+    given = args.given_maps.get(name) if kind == "bare" else None
+    row = {"input": kind, "map": get_map(name, src, given, work)}
+    if row["map"]["path"] is None:
+        return row
+    map_path = os.fspath(row["map"]["path"])
+    made = ParamResult.load(map_path, n_points=len(P), against=os.fspath(src))
+    row["map"].update(preset=made.preset, version=made.version,
+                      normals=made.history[0].get("normals") if made.history else None)
+
+    log(f"{name} ({kind}): pcgeom boundary ...")
+    row["boundary"] = [bench_boundary(name, src, map_path, extra, work, true_vertices,
+                                      true_loops)
+                       for extra in ([], ["--min-width", "1"],
+                                     ["--cloud-spacing", "--min-width", "1"])]
+    target = args.target_vertices or len(P)
+    log(f"{name} ({kind}): pcgeom reconstruct --target-vertices {target} ...")
+    recon = [bench_reconstruct(f"pcgeom reconstruct ({args.size}, {target} vertices)", src,
+                               map_path, [], work, target, args.size)]
+    if len(true_loops) == 1 and not args.no_disk:
+        disk = get_map(name, src, None, work, domain="disk")
+        row["disk_map"] = disk
+        if disk["path"] is not None:
+            log(f"{name} ({kind}): pcgeom reconstruct --domain disk ...")
+            recon.append(bench_reconstruct(
+                f"pcgeom reconstruct --domain disk ({args.size}, {target} vertices)", src,
+                os.fspath(disk["path"]), ["--domain", "disk"], work, target, args.size))
+        else:
+            recon.append({"method": "pcgeom reconstruct --domain disk", "seconds": None,
+                          "error": f"the disk map failed: {disk['error']}"})
+    for r in recon:
+        _score(name, r, P, Ft, diag)
+    row["reconstruction"] = recon
+    return row
+
+
+def _score(name: str, r: dict, P, Ft, diag) -> None:
+    if "V" in r:
+        r.update(score_mesh(r.pop("V"), r.pop("F"), P, P, Ft, diag))
+        log(f"{name}: {r['method']}: Hausdorff {r['hausdorff_rel']:.4f} diag, "
+            f"{r['n_boundary_loops']} loops, manifold {r['edge_manifold']}, "
+            f"{r['seconds']:.1f} s")
+    else:
+        log(f"{name}: {r['method']}: FAILED: {r['error']}")
 
 
 def bench_surface(name: str, args, work: Path) -> dict:
@@ -268,46 +363,26 @@ def bench_surface(name: str, args, work: Path) -> dict:
     diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
     true_vertices, true_loops = boundary_of(Ft)
     row = {"name": name, "n_points": len(P), "n_faces": len(Ft), "diag": diag,
-           "true_loops": len(true_loops), "map": get_map(name, src, args.given_maps, work)}
-    if row["map"]["path"] is None:
-        return row
-    map_path = os.fspath(row["map"]["path"])
-    made = ParamResult.load(map_path, n_points=len(P), against=os.fspath(src))
-    row["map"].update(preset=made.preset, version=made.version)  # a reused map may be old
+           "true_loops": len(true_loops), "inputs": []}
+    for kind in INPUTS:
+        if kind == "normals":
+            import trimesh
 
-    log(f"{name}: pcgeom boundary ...")
-    loops_path = work / f"{name}_loops.json"
-    out, wall, error = run_pcgeom(["boundary", os.fspath(src), "--map", map_path, "--out",
-                                   os.fspath(loops_path)])
-    row["boundary"] = {"seconds": wall, "error": error}
-    if not error:
-        found = json.loads(loops_path.read_text())["loops"]
-        row["boundary"].update(boundary_scores(found, true_vertices, true_loops),
-                               n_dropped=out["n_dropped"])
+            from pcgeom.io import write_ply_atomic
 
-    target = args.target_vertices or len(P)
-    mesh_path = work / f"{name}_mesh.ply"
-    log(f"{name}: pcgeom reconstruct --target-vertices {target} ...")
-    out, wall, error = run_pcgeom(["reconstruct", os.fspath(src), "--map", map_path,
-                                   "--target-vertices", str(target), "--size", args.size,
-                                   "--out", os.fspath(mesh_path)])
-    recon = [{"method": f"pcgeom reconstruct ({args.size}, {target} vertices)",
-              "seconds": wall, "error": error}]
-    if not error:
-        mesh = read_points(mesh_path)
-        recon[0].update(V=mesh.points, F=mesh.faces)
+            path = work / f"{name}_normals.ply"
+            normals = np.asarray(trimesh.Trimesh(P, Ft, process=False).vertex_normals)
+            write_ply_atomic(path, P, normals=normals)
+        else:
+            path = src
+        row["inputs"].append(bench_input(name, kind, path, args, work, P, Ft, diag,
+                                         true_vertices, true_loops))
+    row["meshlab"] = []
     if not args.no_meshlab:
         log(f"{name}: pymeshlab ball pivoting and screened Poisson ...")
-        recon += meshlab_reconstructions(P)
-    for r in recon:
-        if "V" in r:
-            r.update(score_mesh(r.pop("V"), r.pop("F"), P, P, Ft, diag))
-            log(f"{name}: {r['method']}: Hausdorff {r['hausdorff_rel']:.4f} diag, "
-                f"{r['n_boundary_loops']} loops, manifold {r['edge_manifold']}, "
-                f"{r['seconds']:.1f} s")
-        else:
-            log(f"{name}: {r['method']}: FAILED: {r['error']}")
-    row["reconstruction"] = recon
+        row["meshlab"] = meshlab_reconstructions(P)
+        for r in row["meshlab"]:
+            _score(name, r, P, Ft, diag)
     return row
 
 
@@ -333,9 +408,18 @@ def render(rows: list[dict], startup: float, argv: list[str], meta: dict) -> str
         f"- every pcgeom command is a subprocess timed from the outside: its time includes "
         f"Python and torch start-up, {startup:.1f} s here (`python -c \"import pcgeom.cli\"`, "
         "median of 3); pymeshlab is timed in-process, filter calls only",
+        "- inputs: *normals*, the points with the reference mesh's oriented vertex normals as "
+        "PLY nx ny nz (as a scanner writes them; `pcgeom param` uses a file's normals by "
+        "default); *bare*, the shared file as it is, without normals (estimated by PCA and "
+        "oriented by propagation; the map can fold where sheets touch)",
         "- boundary: the detected loops' points against the reference mesh's boundary "
         "vertices (precision, recall); \"recovered\": true loops that come out as one "
-        "detected loop each (holding at least half of the true loop's points)",
+        "detected loop each (holding at least half of the true loop's points); "
+        "`--min-width 1` also drops holes narrower on the surface than one point spacing "
+        "(not the default: it drops true holes of a good map of peaks_7holes_choi); "
+        "`--cloud-spacing` also removes triangles whose 3D circumradius exceeds the cloud's "
+        "own spacing (not the default: it opens spurious holes where the sampling is "
+        "anisotropic, face_human_choi); see pcgeom.apps.boundary",
         "- reconstruction: distances between the mesh and the reference mesh both ways (its "
         "vertices and 50 000 area-uniform points to the other's triangles, exact), over the "
         "cloud's bounding-box diagonal: Hausdorff (largest, both ways), mean (of the two "
@@ -349,37 +433,40 @@ def render(rows: list[dict], startup: float, argv: list[str], meta: dict) -> str
         if "skipped" in row:
             lines += [f"Skipped: {row['skipped']}.", ""]
             continue
-        m = row["map"]
-        how = m["how"] + (f", {m['seconds']:.0f} s" if m.get("seconds") else "")
-        if m.get("preset"):
-            how += f" (preset {m['preset']}, pcgeom {m['version']})"
         lines += [f"{row['n_points']} points (reference mesh: {row['n_faces']} triangles, "
-                  f"{row['true_loops']} boundary loops); diagonal {row['diag']:.4g}; free "
-                  f"map: {how}. Target (issue 12): {TARGETS.get(row['name'], 'none')}.", ""]
-        if m.get("error"):
-            lines += [f"The map failed: {m['error']}", ""]
-            continue
-        b = row["boundary"]
-        lines += ["| `pcgeom boundary` | loops (true) | recovered | dropped | precision | "
-                  "recall | time s |", "|---|---|---|---|---|---|---|"]
-        if b["error"]:
-            lines.append(f"| failed: {b['error']} | | | | | | {_s(b['seconds'])} |")
-        else:
-            lines.append(f"| default rule | {b['loops']} ({b['true_loops']}) | "
-                         f"{b['recovered']}/{b['true_loops']} | {b['n_dropped']} | "
-                         f"{_f(b['precision'], '.3f')} | {_f(b['recall'], '.3f')} | "
-                         f"{_s(b['seconds'])} |")
-        lines += ["", "| reconstruction | vertices | triangles | Hausdorff / diag | mean / diag "
-                  "| mesh -> ref | ref -> mesh | area ratio | edge-manifold | oriented | "
-                  "loops | min angle | time s |", "|---" * 13 + "|"]
-        for r in row["reconstruction"]:
+                  f"{row['true_loops']} boundary loops); diagonal {row['diag']:.4g}. Target "
+                  f"(issue 12): {TARGETS.get(row['name'], 'none')}. Inputs: "
+                  + "; ".join(_input_line(r) for r in row["inputs"]) + ".", ""]
+        lines += ["| `pcgeom boundary` | input | loops (true) | recovered | dropped | precision "
+                  "| recall | time s |", "|---|---|---|---|---|---|---|---|"]
+        for inp in row["inputs"]:
+            if inp["map"].get("error"):
+                lines.append(f"| map failed: {inp['map']['error']} | {inp['input']} |"
+                             + " |" * 6)
+                continue
+            for b in inp["boundary"]:
+                rule = "default rule" + (f", `{b['args']}`" if b["args"] else "")
+                if b["error"]:
+                    lines.append(f"| {rule}: failed: {b['error']} | {inp['input']} |"
+                                 + " |" * 5 + f" {_s(b['seconds'])} |")
+                    continue
+                lines.append(f"| {rule} | {inp['input']} | {b['loops']} ({b['true_loops']}) | "
+                             f"{b['recovered']}/{b['true_loops']} | {b['n_dropped']} | "
+                             f"{_f(b['precision'], '.3f')} | {_f(b['recall'], '.3f')} | "
+                             f"{_s(b['seconds'])} |")
+        lines += ["", "| reconstruction | input | vertices | triangles | Hausdorff / diag | "
+                  "mean / diag | mesh -> ref | ref -> mesh | area ratio | edge-manifold | "
+                  "oriented | loops | min angle | time s |", "|---" * 14 + "|"]
+        recon = [(inp["input"], r) for inp in row["inputs"] for r in inp.get("reconstruction", [])]
+        recon += [("points only", r) for r in row["meshlab"]]
+        for kind, r in recon:
             if "hausdorff_rel" not in r:
                 t = _s(r["seconds"]) if r.get("seconds") is not None else ""
-                lines.append(f"| {r['method']} | failed: {r['error']} |" + " |" * 10
+                lines.append(f"| {r['method']} | {kind} | failed: {r['error']} |" + " |" * 10
                              + f" {t} |")
                 continue
             lines.append(
-                f"| {r['method']} | {r['n_vertices']} | {r['n_faces']} | "
+                f"| {r['method']} | {kind} | {r['n_vertices']} | {r['n_faces']} | "
                 f"{r['hausdorff_rel']:.4f} | {r['mean_rel']:.5f} | {r['to_true_rel']:.4f} | "
                 f"{r['from_true_rel']:.4f} | {r['area_ratio']:.3f} | "
                 f"{'yes' if r['edge_manifold'] else 'no'} | {'yes' if r['oriented'] else 'no'}"
@@ -387,6 +474,16 @@ def render(rows: list[dict], startup: float, argv: list[str], meta: dict) -> str
                 f"{r['min_angle_deg']:.1f} | {_s(r['seconds'])} |")
         lines.append("")
     return "\n".join(lines)
+
+
+def _input_line(inp: dict) -> str:
+    m = inp["map"]
+    how = m["how"] + (f", {m['seconds']:.0f} s" if m.get("seconds") else "")
+    if m.get("preset"):
+        how += f" (preset {m['preset']}, pcgeom {m['version']})"
+    if m.get("normals"):
+        how += f", normals {m['normals']}"
+    return f"{inp['input']}: free map by {how}"
 
 
 def _load() -> str:
@@ -419,7 +516,8 @@ def main(argv: list[str] | None = None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--surfaces", nargs="+", choices=SURFACES, default=list(SURFACES))
     parser.add_argument("--map", dest="maps", action="append", type=_map_arg, default=[],
-                        metavar="NAME=MAP.npz", help="reuse a free-boundary map of a surface")
+                        metavar="NAME=MAP.npz",
+                        help="reuse a free-boundary map of a surface's bare input")
     parser.add_argument("--work", type=Path, default=REPO / "benchmarks" / "results" / "apps",
                         help="where maps (NAME_uv.npz, reused on the next run), loops and "
                              "meshes go (default: benchmarks/results/apps, not tracked)")
@@ -427,6 +525,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="pcgeom reconstruct's target (default: the cloud's point count)")
     parser.add_argument("--size", choices=("uniform", "adaptive"), default="uniform")
     parser.add_argument("--no-meshlab", action="store_true", help="skip pymeshlab's methods")
+    parser.add_argument("--no-disk", action="store_true",
+                        help="skip the disk map and its reconstruction (--domain disk)")
     parser.add_argument("--out", type=Path, default=REPO / "BENCHMARKS.md")
     parser.add_argument("--json", type=Path, help="also dump the measurements as JSON")
     argv = sys.argv[1:] if argv is None else argv
