@@ -184,7 +184,10 @@ def smile_rows(seed: int, work: Path, landmarks: bool = True) -> list[dict]:
 def car_rows(seed: int, n: int, work: Path) -> list[dict]:
     from car import TARGET_LINES, TARGET_SPACING, car_shell
 
+    from pcgeom import ParamResult
     from pcgeom.io import write_ply_atomic
+    from pcgeom.io.landmarks import sample_polyline
+    from pcgeom.metrics import hausdorff
 
     V, F, edges = car_shell(n, seed=0)
     shell = work / "car_shell.ply"
@@ -195,10 +198,6 @@ def car_rows(seed: int, n: int, work: Path) -> list[dict]:
     rows = []
     for method, lm in (("pcgeom `fast`", None), ("pcgeom `fast`, window-edge landmarks", marks)):
         run = run_param(shell, "car", work / f"car_{len(rows)}.npz", seed=seed, landmarks=lm)
-        from pcgeom import ParamResult
-        from pcgeom.io.landmarks import sample_polyline
-        from pcgeom.metrics import hausdorff
-
         U = ParamResult.load(run["out"]).uv
         targets = np.vstack([sample_polyline(line, TARGET_SPACING) for line in TARGET_LINES])
         ev = run["summary"]["evaluation"]

@@ -140,9 +140,9 @@ def hole_landmarks(V, U, holes_idx, targets) -> tuple[list, list[str]]:
     The longest cloud hole (the first) goes to the largest domain hole (the mouth); the others
     to the others in the order of their mapped centroids' x under ``U``.
     """
-    from pcgeom.io.landmarks import sample_polyline
-
     import shapely
+
+    from pcgeom.io.landmarks import sample_polyline
 
     by_area = sorted(range(len(targets)), key=lambda j: -shapely.Polygon(targets[j]["ring"]).area)
     big, rest = by_area[0], sorted(by_area[1:], key=lambda j: targets[j]["inside"][0])
