@@ -127,7 +127,7 @@ def threads() -> int:
 
 
 def tiny_config(preset: str = "networks", *, epochs: int = 2, refine_steps: int = 20,
-                batch: int = 512):
+                batch: int = 512, refine_batch_domain: int = 1024):
     """``preset`` shrunk to seconds (``--quick``): short stages, small nets, few refinement
     steps."""
     from pcgeom import get_preset
@@ -140,7 +140,7 @@ def tiny_config(preset: str = "networks", *, epochs: int = 2, refine_steps: int 
         param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),
         lambda_net=NetConfig(width=16, depth=1, init="siren", w0=5.0),
         domain_samples=2048,
-        refine=RefineConfig(steps=refine_steps),
+        refine=RefineConfig(steps=refine_steps, batch_domain=refine_batch_domain),
     )
 
 
