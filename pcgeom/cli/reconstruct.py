@@ -100,18 +100,22 @@ def run(args) -> int:
                                        target_vertices=args.target_vertices,
                                        lambda_inv=result.lambda_inv)
     write_mesh(out, V, F)
+    summary = _summary(args, points, result, out, report, n_loops_detected=len(loops.loops))
+    return _print(args, points, report, summary, f"{len(loops.loops)} detected")
 
-    summary = {
+
+def _summary(args, points, result, out, report: dict, **extra) -> dict:
+    """The ``--json`` object of a reconstruction (``extra`` before the mesh report)."""
+    return {
         "command": "reconstruct",
         "input": args.input,
         "map": args.map,
         "out": os.fspath(out),
         "n_points": len(points),
-        "n_loops_detected": len(loops.loops),
+        **extra,
         **report,
         "mapped_seconds": None if args.map is not None else float(result.seconds),
     }
-    return _print(args, points, report, summary, f"{len(loops.loops)} detected")
 
 
 def _on_domain(args, points, result, domain, out) -> int:
@@ -120,15 +124,7 @@ def _on_domain(args, points, result, domain, out) -> int:
                                          target_vertices=args.target_vertices,
                                          lambda_inv=result.lambda_inv)
     write_mesh(out, V, F)
-    summary = {
-        "command": "reconstruct",
-        "input": args.input,
-        "map": args.map,
-        "out": os.fspath(out),
-        "n_points": len(points),
-        **report,
-        "mapped_seconds": None if args.map is not None else float(result.seconds),
-    }
+    summary = _summary(args, points, result, out, report)
     return _print(args, points, report, summary,
                   f"{report['n_domain_loops']} in the domain {domain.spec}")
 
