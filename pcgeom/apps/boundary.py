@@ -225,14 +225,20 @@ def _validate_map(U) -> np.ndarray:
 
 
 def _check_positive(value, name: str) -> float:
+    return _check_number(value, name, allow_zero=False)
+
+
+def _check_number(value, name: str, *, allow_zero: bool) -> float:
+    """``value`` as a finite float, > 0 (or >= 0 with ``allow_zero``), or a one-line error."""
+    want = "a non-negative" if allow_zero else "a positive"
     if isinstance(value, bool):
-        raise InputError(f"{name}: expected a positive number, got {value!r}")
+        raise InputError(f"{name}: expected {want} number, got {value!r}")
     try:
         value = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a positive number, got {value!r}") from None
-    if not np.isfinite(value) or value <= 0:
-        raise InputError(f"{name}: expected a positive number, got {value}")
+        raise InputError(f"{name}: expected {want} number, got {value!r}") from None
+    if not np.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
+        raise InputError(f"{name}: expected {want} number, got {value}")
     return value
 
 
@@ -250,15 +256,7 @@ def _validate_points_of(points, n: int) -> np.ndarray:
 
 
 def _check_non_negative(value, name: str) -> float:
-    if isinstance(value, bool):
-        raise InputError(f"{name}: expected a non-negative number, got {value!r}")
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a non-negative number, got {value!r}") from None
-    if not np.isfinite(value) or value < 0:
-        raise InputError(f"{name}: expected a non-negative number, got {value}")
-    return value
+    return _check_number(value, name, allow_zero=True)
 
 
 def _delaunay(U: np.ndarray) -> np.ndarray:
