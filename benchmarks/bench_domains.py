@@ -11,14 +11,16 @@ domain from :func:`pcgeom.metrics.domain_hausdorff` (exact outside, 200 000 samp
   (:func:`pcgeom.apps.baselines.harmonic_disk`, scored by the same ``map_report``). The face
   runs twice: the file as it is (no normals: they are estimated) and with the mesh's vertex
   normals, as a scanner writes them.
-- ``face_3holes_small_choi`` onto ``smile`` (``fast``: onto a domain other than the disk, the
-  networks), one seed: whether each hole of the cloud lands on one eye or the mouth
-  (``examples/face_smile.py``'s test, on the map file the CLI wrote), the Hausdorff distance
-  and the angle distortion. When the holes do not all land, a second run with the holes'
-  boundary points as landmarks onto the domain's hole boundaries.
-- The analytic car shell of ``examples/car.py`` onto ``car``, one seed, without and with the
-  window-edge landmarks (134 points to 400 targets): landmark Hausdorff, domain Hausdorff,
+- ``face_3holes_small_choi`` onto ``smile`` (``fast``: the local mesh laid on the domain,
+  holes on holes, then refined), the same seeds: whether each hole of the cloud lands on one
+  eye or the mouth (``examples/face_smile.py``'s test, on the map file the CLI wrote), the
+  Hausdorff distance and the angle distortion. When the holes do not all land, a second run
+  with the holes' boundary points as landmarks onto the domain's hole boundaries.
+- The analytic car shell of ``examples/car.py`` onto ``car``, the same seeds, without and with
+  the window-edge landmarks (134 points to 400 targets): landmark Hausdorff, domain Hausdorff,
   angle.
+- ``--compare networks`` adds the smile and the car by another preset (first seed only), in
+  the same run.
 
 The three groups (disk, smile, car) run as three concurrent streams of subprocesses
 (``--streams 1`` for one after the other): the smile and car runs take many minutes each on
@@ -81,7 +83,7 @@ def run_param(src, domain: str, out: Path, seed: int = 0, preset: str = "fast",
     log(f"{Path(src).name} -> {domain} seed {seed}{' +landmarks' if landmarks else ''}: "
         f"{wall:.1f} s, H {summary['domain_hausdorff']:.4f}, "
         f"{ev.get('mean_abs_angle_rad', float('nan')):.4f} rad")
-    return {"wall_s": wall, "summary": summary, "out": out}
+    return {"wall_s": wall, "summary": summary, "out": out, "seed": seed}
 
 
 def _row(name: str, method: str, runs: list[dict], needs_mesh: str) -> dict:
@@ -145,7 +147,7 @@ def disk_rows(seeds, work: Path) -> list[dict]:
     return rows
 
 
-def smile_rows(seed: int, work: Path, landmarks: bool = True) -> list[dict]:
+def smile_rows(seeds, work: Path, landmarks: bool = True, presets=("fast",)) -> list[dict]:
     from face_smile import cloud_holes, domain_holes, hole_landmarks, landing
 
     from pcgeom import ParamResult, get_domain, read_points
@@ -159,29 +161,36 @@ def smile_rows(seed: int, work: Path, landmarks: bool = True) -> list[dict]:
     holes, targets = cloud_holes(cloud.points, cloud.faces), domain_holes(smile)
     rows = []
 
-    def row(run, method):
-        U = ParamResult.load(run["out"]).uv
-        land = landing(U, holes, targets)
-        ev = run["summary"]["evaluation"]
-        rows.append({"method": method, "landing": land, "wall_s": run["wall_s"],
-                     "hausdorff": run["summary"]["domain_hausdorff"],
-                     "rad": ev["mean_abs_angle_rad"], "flipped": ev["flipped"],
-                     "n_faces": ev["n_faces"],
-                     "landmark_hausdorff": run["summary"]["landmark_hausdorff"]})
-        return U, land
+    def row(runs, method):
+        maps = [ParamResult.load(run["out"]).uv for run in runs]
+        lands = [landing(U, holes, targets) for U in maps]
+        evs = [run["summary"]["evaluation"] for run in runs]
+        rows.append({"method": method, "seeds": [run["seed"] for run in runs],
+                     "landing": lands[0], "all_land": [land["all_land"] for land in lands],
+                     "wall_s": statistics.median(run["wall_s"] for run in runs),
+                     "hausdorff": statistics.median(run["summary"]["domain_hausdorff"]
+                                                    for run in runs),
+                     "rad": statistics.median(e["mean_abs_angle_rad"] for e in evs),
+                     "flipped": statistics.median(e["flipped"] for e in evs),
+                     "n_faces": evs[0]["n_faces"]})
+        return maps[0], lands[0]
 
-    U, land = row(run_param(src, "smile", work / "smile.npz", seed=seed), "pcgeom `fast`")
-    if landmarks and not land["all_land"]:
-        pairs, names = hole_landmarks(cloud.points, U, holes, targets)
-        marks = work / "smile_landmarks.json"
-        marks.write_text(json.dumps([{"points": P.tolist(), "targets": Q.tolist()}
-                                     for P, Q in pairs]))
-        row(run_param(src, "smile", work / "smile_lm.npz", seed=seed, landmarks=marks),
-            "pcgeom `fast`, hole boundaries as landmarks (" + ", ".join(names) + ")")
+    for preset in presets:
+        runs = [run_param(src, "smile", work / f"smile_{preset}_{s}.npz", seed=s, preset=preset)
+                for s in (seeds if preset == "fast" else seeds[:1])]
+        U, land = row(runs, f"pcgeom `{preset}`")
+        if landmarks and not land["all_land"]:
+            pairs, names = hole_landmarks(cloud.points, U, holes, targets)
+            marks = work / f"smile_landmarks_{preset}.json"
+            marks.write_text(json.dumps([{"points": P.tolist(), "targets": Q.tolist()}
+                                         for P, Q in pairs]))
+            row([run_param(src, "smile", work / f"smile_lm_{preset}.npz", seed=seeds[0],
+                           preset=preset, landmarks=marks)],
+                f"pcgeom `{preset}`, hole boundaries as landmarks (" + ", ".join(names) + ")")
     return rows
 
 
-def car_rows(seed: int, n: int, work: Path) -> list[dict]:
+def car_rows(seeds, n: int, work: Path, presets=("fast",)) -> list[dict]:
     from car import TARGET_LINES, TARGET_SPACING, car_shell
 
     from pcgeom import ParamResult
@@ -195,17 +204,25 @@ def car_rows(seed: int, n: int, work: Path) -> list[dict]:
     marks = work / "car_landmarks.json"
     marks.write_text(json.dumps([{"indices": edges.tolist(), "polylines": TARGET_LINES,
                                   "spacing": TARGET_SPACING}]))
+    targets = np.vstack([sample_polyline(line, TARGET_SPACING) for line in TARGET_LINES])
     rows = []
-    for method, lm in (("pcgeom `fast`", None), ("pcgeom `fast`, window-edge landmarks", marks)):
-        run = run_param(shell, "car", work / f"car_{len(rows)}.npz", seed=seed, landmarks=lm)
-        U = ParamResult.load(run["out"]).uv
-        targets = np.vstack([sample_polyline(line, TARGET_SPACING) for line in TARGET_LINES])
-        ev = run["summary"]["evaluation"]
-        rows.append({"method": method, "points": len(V), "landmarks": len(edges),
-                     "targets": len(targets), "landmark_fit": hausdorff(U[edges], targets),
-                     "hausdorff": run["summary"]["domain_hausdorff"],
-                     "rad": ev["mean_abs_angle_rad"], "flipped": ev["flipped"],
-                     "n_faces": ev["n_faces"], "wall_s": run["wall_s"]})
+    for preset in presets:
+        for method, lm in ((f"pcgeom `{preset}`", None),
+                           (f"pcgeom `{preset}`, window-edge landmarks", marks)):
+            runs = [run_param(shell, "car", work / f"car_{len(rows)}_{s}.npz", seed=s,
+                              preset=preset, landmarks=lm)
+                    for s in (seeds if preset == "fast" else seeds[:1])]
+            fits = [hausdorff(ParamResult.load(run["out"]).uv[edges], targets) for run in runs]
+            evs = [run["summary"]["evaluation"] for run in runs]
+            rows.append({"method": method, "points": len(V), "landmarks": len(edges),
+                         "targets": len(targets), "seeds": [run["seed"] for run in runs],
+                         "landmark_fit": statistics.median(fits),
+                         "hausdorff": statistics.median(run["summary"]["domain_hausdorff"]
+                                                        for run in runs),
+                         "rad": statistics.median(e["mean_abs_angle_rad"] for e in evs),
+                         "flipped": statistics.median(e["flipped"] for e in evs),
+                         "n_faces": evs[0]["n_faces"],
+                         "wall_s": statistics.median(run["wall_s"] for run in runs)})
     return rows
 
 
@@ -270,32 +287,37 @@ def render(disk, smile, car, args, started: float) -> str:
                        f"{r['wall_s']:.1f} |")
         out += ["", "Targets (issue 11, on the medians):", "", *verdicts(disk), ""]
     if smile:
-        out += ["`face_3holes_small_choi` (5053 points, three holes) onto `smile`, one seed "
-                "(seed 0; a run takes minutes). A hole *lands* when the closed polygon of its "
+        out += ["`face_3holes_small_choi` (5053 points, three holes) onto `smile` (`fast`: the "
+                "local mesh laid on the domain, its holes on the domain's holes, then refined; "
+                "medians over the seeds). A hole *lands* when the closed polygon of its "
                 "mapped boundary points encloses one domain hole and no other, one to one "
                 "(`examples/face_smile.py`, `landing`):", "",
-                "| method | every hole lands | holes: nearest domain hole (encloses; Hausdorff "
-                "of the mapped loop to its boundary) | Hausdorff to the domain | mean abs "
-                "angle, rad | flips | wall s |", "|---|---|---|---|---|---|---|"]
+                "| method | seeds | every hole lands, per seed | holes, first seed: nearest "
+                "domain hole (encloses; Hausdorff of the mapped loop to its boundary) | "
+                "Hausdorff to the domain | mean abs angle, rad | flips | wall s |",
+                "|---|---|---|---|---|---|---|---|"]
         for r in smile:
             holes = "; ".join(f"{h['nearest']} ({', '.join(h['encloses']) or 'none'}; "
                               f"{h['hausdorff']:.3f})" for h in r["landing"]["holes"])
-            out.append(f"| {r['method']} | {'yes' if r['landing']['all_land'] else 'NO'} | "
-                       f"{holes} | {r['hausdorff']:.4f} | {r['rad']:.4f} | {r['flipped']} of "
-                       f"{r['n_faces']} | {r['wall_s']:.1f} |")
-        out.append("")
+            lands = ", ".join("yes" if a else "NO" for a in r["all_land"])
+            out.append(f"| {r['method']} | {' '.join(map(str, r['seeds']))} | {lands} | "
+                       f"{holes} | {r['hausdorff']:.4f} | {r['rad']:.4f} | {r['flipped']:g} "
+                       f"of {r['n_faces']} | {r['wall_s']:.1f} |")
+        out += ["", "Target (issue 11): every hole lands: " + (
+            "PASS" if all(all(r["all_land"]) for r in smile if r["method"] == "pcgeom `fast`")
+            else "FAIL") + " (`fast`, every seed)", ""]
     if car:
         r0 = car[0]
         out += [f"The analytic car shell of `examples/car.py` ({r0['points']} points) onto "
-                f"`car`, one seed (seed 0): landmark fit is the Hausdorff distance between the "
-                f"{r0['landmarks']} mapped window-edge points (one set) and the "
+                f"`car`, medians over the seeds: landmark fit is the Hausdorff distance "
+                f"between the {r0['landmarks']} mapped window-edge points (one set) and the "
                 f"{r0['targets']} targets on [-0.5, 0.5] x {{-0.25, 0.25}}:", "",
-                "| method | landmark Hausdorff | Hausdorff to the domain | mean abs angle, rad "
-                "| flips | wall s |", "|---|---|---|---|---|---|"]
+                "| method | seeds | landmark Hausdorff | Hausdorff to the domain | mean abs "
+                "angle, rad | flips | wall s |", "|---|---|---|---|---|---|---|"]
         for r in car:
-            out.append(f"| {r['method']} | {r['landmark_fit']:.4f} | {r['hausdorff']:.4f} | "
-                       f"{r['rad']:.4f} | {r['flipped']} of {r['n_faces']} | "
-                       f"{r['wall_s']:.1f} |")
+            out.append(f"| {r['method']} | {' '.join(map(str, r['seeds']))} | "
+                       f"{r['landmark_fit']:.4f} | {r['hausdorff']:.4f} | {r['rad']:.4f} | "
+                       f"{r['flipped']:g} of {r['n_faces']} | {r['wall_s']:.1f} |")
         out.append("")
     return "\n".join(out)
 
@@ -310,6 +332,9 @@ def main(argv=None) -> int:
     p.add_argument("--smile-landmarks", choices=("auto", "never"), default="auto",
                    help="auto: a second smile run with the holes as landmarks when the first "
                         "does not land every hole (default: auto)")
+    p.add_argument("--compare", nargs="*", default=[], metavar="PRESET",
+                   help="also run the smile and the car with these presets, first seed only "
+                        "(e.g. networks: the networks of the paper; tens of minutes a run)")
     p.add_argument("--streams", type=int, default=3,
                    help="groups (disk, smile, car) run at once (default: 3)")
     p.add_argument("--out", type=Path, default=REPO / "BENCHMARKS.md")
@@ -320,8 +345,10 @@ def main(argv=None) -> int:
 
     with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(args.streams) as pool:
         work = Path(tmp)
-        jobs = {"smile": lambda: smile_rows(0, work, args.smile_landmarks == "auto"),
-                "car": lambda: car_rows(0, args.car_points, work),
+        presets = ("fast", *args.compare)
+        jobs = {"smile": lambda: smile_rows(args.seeds, work, args.smile_landmarks == "auto",
+                                            presets),
+                "car": lambda: car_rows(args.seeds, args.car_points, work, presets),
                 "disk": lambda: disk_rows(args.seeds, work)}
         futures = {name: pool.submit(job) for name, job in jobs.items()
                    if name not in args.skip}

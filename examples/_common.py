@@ -129,12 +129,19 @@ def threads() -> int:
 def tiny_config(preset: str = "networks", *, epochs: int = 2, refine_steps: int = 20,
                 batch: int = 512, refine_batch_domain: int = 1024):
     """``preset`` shrunk to seconds (``--quick``): short stages, small nets, few refinement
-    steps."""
-    from pcgeom import get_preset
-    from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig
+    steps (after the networks, and after the local mesh laid on a domain)."""
+    import dataclasses
 
+    from pcgeom import get_preset
+    from pcgeom.config import PRESETS, NetConfig, RefineConfig, ScheduleConfig
+
+    local_mesh = PRESETS[preset].local_mesh if preset in PRESETS else None
+    if local_mesh is not None:
+        local_mesh = dataclasses.replace(local_mesh, domain_refine=dataclasses.replace(
+            local_mesh.domain_refine, steps=refine_steps))
     return get_preset(
         preset,
+        **({"local_mesh": local_mesh} if local_mesh is not None else {}),
         schedule=ScheduleConfig(epochs=epochs, epochs_min=max(1, epochs // 2), batch_points=batch,
                                 batch_domain=batch),
         param_net=NetConfig(width=32, depth=2, init="siren", w0=5.0),

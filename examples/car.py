@@ -15,10 +15,11 @@ side) are ONE landmark set, matched to 400 target points on the two lines
 ``[-0.5, 0.5] x {-0.25, 0.25}`` (200 each), with no correspondence given between the two
 edges and the two lines.
 
-Both runs use ``fast`` (onto a domain other than the disk, the networks: two stages and the
-per-point refinement), measured after every stage: Hausdorff distance to the domain, angle
-distortion on the construction's triangles (used only to measure), and the landmark Hausdorff
-distance (recorded by the history in the landmark run; computed from the map in the other).
+Both runs use ``fast`` (the local mesh laid on the domain, then the per-point refinement;
+the landmarks help choose the first map's turn and enter the refinement), measured after each
+step: Hausdorff distance to the domain, angle distortion on the construction's triangles
+(used only to measure), and the landmark Hausdorff distance (recorded by the history in the
+landmark run; computed from the map in the other).
 
 Writes ``car.png``, ``car.json`` and the inputs as a user would pass them to the CLI,
 ``car_shell.ply`` (points and faces) and ``car_landmarks.json``::

@@ -15,9 +15,10 @@ it encloses it.
 
 Runs:
 
-1. ``fast`` (onto a domain other than the disk, the networks: two stages and the refinement),
-   measured after every stage: Hausdorff distance to the domain, angle distortion on the
-   reference triangles, where the holes land.
+1. ``fast`` (the local mesh laid on the domain with its holes on the domain's holes, by
+   :func:`pcgeom.domainmap.harmonic_onto`, then the refinement), measured after each step:
+   Hausdorff distance to the domain, angle distortion on the reference triangles, where the
+   holes land.
 2. With landmarks, as the paper matches landmarks (``--landmarks auto``: only when run 1 does
    not land every hole; ``always``, ``never``): each cloud hole's boundary points are one
    landmark set, matched to its domain hole's boundary (sampled every 0.01). The mouth (the

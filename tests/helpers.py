@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 from pcgeom import cli
-from pcgeom.config import NetConfig, RefineConfig, ScheduleConfig, get_preset
+from pcgeom.config import (PRESETS, LocalMeshConfig, NetConfig, RefineConfig, ScheduleConfig,
+                           get_preset)
 
 
 def tiny_preset(name: str, *, epochs: int = 1, max_stages: int = 1, refine_steps: int = 5):
@@ -21,7 +24,16 @@ def tiny_preset(name: str, *, epochs: int = 1, max_stages: int = 1, refine_steps
         domain_samples=512,
         max_stages=max_stages,
         refine=RefineConfig(steps=refine_steps),
+        local_mesh=_tiny_local_mesh(name, refine_steps),
     )
+
+
+def _tiny_local_mesh(name: str, refine_steps: int):
+    """The preset's local-mesh settings with the refinement onto a domain as short."""
+    if name not in PRESETS:
+        return LocalMeshConfig()
+    return dataclasses.replace(PRESETS[name].local_mesh, domain_refine=RefineConfig(
+        steps=refine_steps, batch_domain=512, hand_backend="knn"))
 
 
 def assert_cli_fails(capsys, argv: list[str], message: str) -> None:

@@ -41,7 +41,8 @@ def _tiny(name: str = "fast"):
     """The preset shrunk to seconds, with two short network stages so that a map trained in
     stages has a checkpoint mid-scan (the disk by the networks too: ``fast`` maps it by the
     local mesh, in one step); unknown names still raise the real error."""
-    return dataclasses.replace(tiny_preset(name, max_stages=2), disk_map="networks")
+    return dataclasses.replace(tiny_preset(name, max_stages=2), disk_map="networks",
+                               domain_map="networks")
 
 
 def _write_scans(folder: Path, n: int = 4, broken: bool = True) -> list[Path]:

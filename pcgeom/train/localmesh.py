@@ -19,7 +19,7 @@ from .data import TrainData
 from .objective import LOSS_TERMS, Objective
 from .refine import refine
 
-__all__ = ["localmesh_map", "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
+__all__ = ["localmesh_map", "localmesh_domain_map", "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
 
 MIN_MESHED = 0.5
 """The smallest share of the points the local mesh's main part must hold."""
@@ -38,6 +38,40 @@ CLOSED_SURFACE = (
     "points)"
 )
 """The message of the :class:`InputError` for a closed surface."""
+
+
+def _free_local_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
+                    progress: bool):
+    """Outliers, the surface test, normals, the local mesh and its free LSCM map.
+
+    Returns the map, the mesh, the normals (estimated when ``normals`` is None) and the start
+    of the history record."""
+    settings = config.local_mesh
+    outlier = find_outliers(Xn)
+    inliers = np.flatnonzero(~outlier)
+    # One neighbourhood PCA serves the surface test and, without normals, their estimate.
+    values, vectors = local_pca(Xn[inliers], settings.normal_neighbours)
+    if np.median(surface_variation(values)) > MAX_VARIATION:
+        raise InputError(NOT_A_SURFACE)
+    source = "input"
+    if normals is None:
+        source = "estimated"
+        normals = np.zeros_like(Xn)  # outliers' rows stay zero: no pair and no fan uses them
+        normals[inliers] = orient_normals(Xn[inliers], np.ascontiguousarray(vectors[:, :, 0]),
+                                          settings.normal_neighbours)
+    mesh = local_mesh(Xn, normals, settings.neighbours, exclude=outlier, progress=progress)
+    meshed = float(mesh.main.mean())
+    if meshed < MIN_MESHED:
+        raise InputError(f"only {100 * meshed:.0f}% of the points fit one local mesh: "
+                         + NOT_A_SURFACE)
+    if mesh.looks_closed:
+        raise InputError(CLOSED_SURFACE)
+    uv = lscm_free(Xn, mesh)
+    record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
+              "neighbours": settings.neighbours, "faces": mesh.n_faces,
+              "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),
+              "unmeshed": int((~mesh.main).sum())}
+    return uv, mesh, normals, record
 
 
 def localmesh_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
@@ -76,30 +110,7 @@ def localmesh_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfi
     """
     t0 = time.perf_counter()
     settings = config.local_mesh
-    outlier = find_outliers(Xn)
-    inliers = np.flatnonzero(~outlier)
-    # One neighbourhood PCA serves the surface test and, without normals, their estimate.
-    values, vectors = local_pca(Xn[inliers], settings.normal_neighbours)
-    if np.median(surface_variation(values)) > MAX_VARIATION:
-        raise InputError(NOT_A_SURFACE)
-    source = "input"
-    if normals is None:
-        source = "estimated"
-        normals = np.zeros_like(Xn)  # outliers' rows stay zero: no pair and no fan uses them
-        normals[inliers] = orient_normals(Xn[inliers], np.ascontiguousarray(vectors[:, :, 0]),
-                                          settings.normal_neighbours)
-    mesh = local_mesh(Xn, normals, settings.neighbours, exclude=outlier, progress=progress)
-    meshed = float(mesh.main.mean())
-    if meshed < MIN_MESHED:
-        raise InputError(f"only {100 * meshed:.0f}% of the points fit one local mesh: "
-                         + NOT_A_SURFACE)
-    if mesh.looks_closed:
-        raise InputError(CLOSED_SURFACE)
-    uv = lscm_free(Xn, mesh)
-    record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
-              "neighbours": settings.neighbours, "faces": mesh.n_faces,
-              "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),
-              "unmeshed": int((~mesh.main).sum())}
+    uv, mesh, normals, record = _free_local_map(Xn, normals, config, progress=progress)
     if isinstance(domain, Disk):
         uv = np.asarray(domain.center) + domain.radius * conformal_disk(Xn, mesh, uv)
         record.update(onto=domain.spec, seconds=time.perf_counter() - t0)
@@ -123,3 +134,68 @@ def localmesh_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfi
         record.update({k: refined[k] for k in LOSS_TERMS if k in refined})
     record["seconds"] = time.perf_counter() - t0
     return uv, lam_inv, record
+
+
+def localmesh_domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
+                         domain: Domain, data: TrainData, objective: Objective, *,
+                         progress: bool, on_stage=None
+                         ) -> tuple[torch.Tensor, torch.Tensor, list[dict]]:
+    """The local mesh laid on a bounded domain, holes on holes, then refined.
+
+    :func:`pcgeom.domainmap.harmonic_onto` gives the first map (the landmarks, when any, help
+    choose its alignment); :func:`pcgeom.train.refine.refine` with
+    ``config.local_mesh.domain_refine`` then optimizes it on LEG (local pairs), HAND onto the
+    domain sample ``data.W`` and the landmark terms.
+
+    Parameters
+    ----------
+    Xn, normals, config
+        As :func:`localmesh_map`.
+    domain : Domain
+        Bounded, one connected region.
+    data : TrainData
+        The run's tensors: the cloud, the domain sample, the landmarks.
+    objective : Objective
+        The run's objective (its weights and landmark targets).
+    on_stage : callable, optional
+        Called with each history record and the map after it, (N, 2) float64.
+
+    Returns
+    -------
+    U : (N, 2) tensor
+    lam_inv : (N,) tensor
+    records : list of dict
+        The ``"localmesh"`` record (as :func:`localmesh_map`'s, plus ``onto``, the holes of
+        the mesh and of the domain, how many were paired, the alignment's ``mirror`` and
+        ``rotation_deg``, and ``landmark_hausdorff`` of the first map when there are
+        landmarks), then the refinement's when it has steps.
+    """
+    from scipy.spatial import cKDTree
+
+    from ..domainmap import harmonic_onto
+    from ..metrics import hausdorff
+
+    t0 = time.perf_counter()
+    uv, mesh, normals, record = _free_local_map(Xn, normals, config, progress=progress)
+    tree = cKDTree(Xn)
+    # Each landmark point acts through its nearest cloud point, as in the refinement.
+    marks = [(tree.query(p.cpu().double().numpy())[1], q.cpu().double().numpy())
+             for p, q in zip(data.landmark_points, data.landmark_targets)]
+    U0, info = harmonic_onto(Xn, mesh, uv, domain, landmarks=marks)
+    record.update(onto=domain.spec, **info)
+    if marks:
+        record["landmark_hausdorff"] = [hausdorff(U0[i], q) for i, q in marks]
+    record["seconds"] = time.perf_counter() - t0
+    records = [record]
+    if on_stage is not None:
+        on_stage(record, U0)
+    U = torch.tensor(U0, device=data.X.device, dtype=data.X.dtype)
+    lam_inv = torch.tensor(conformal_factor(Xn, U0), device=data.X.device, dtype=data.X.dtype)
+    refine_config = config.local_mesh.domain_refine
+    if refine_config.steps > 0:
+        U, lam_inv, refined = refine(data, Xn, (U, lam_inv), objective, refine_config,
+                                     normals=normals, progress=progress)
+        records.append(refined)
+        if on_stage is not None:
+            on_stage(refined, U.cpu().double().numpy())
+    return U, lam_inv, records

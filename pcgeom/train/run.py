@@ -29,7 +29,7 @@ from ..io.results import ParamResult
 from .checkpoint import load_checkpoint, save_checkpoint
 from .data import TrainData
 from .device import resolve_device
-from .localmesh import localmesh_map
+from .localmesh import localmesh_domain_map, localmesh_map
 from .networks import build_networks, run_network_stage
 from .objective import Objective
 from .plan import stage_plan
@@ -134,8 +134,12 @@ def parametrize(
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
     if lm_points and not domain.bounded:
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
+    # Which map: the free boundary by free_map, a disk without landmarks by disk_map, any
+    # other bounded domain (and landmarks) by domain_map.
+    plain_disk = isinstance(domain, Disk) and not landmarks
     free = not domain.bounded and config.free_map == "localmesh"
-    disk = isinstance(domain, Disk) and not landmarks and config.disk_map == "localmesh"
+    disk = plain_disk and config.disk_map == "localmesh"
+    laid = domain.bounded and not plain_disk and config.domain_map == "localmesh"
     if free or disk:
         uv, lam_inv, record = localmesh_map(Xn, normals, config, domain, device=dev,
                                             dtype=dtype, seed=seed, progress=progress)
@@ -153,8 +157,21 @@ def parametrize(
     gen = torch.Generator(device="cpu")
     data = TrainData(torch.tensor(Xn, device=dev, dtype=dtype), W, lm_points, lm_targets, gen,
                      None if normals is None else torch.tensor(normals, device=dev, dtype=dtype))
-    stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
     objective = Objective(config.weights, lm_targets)
+    if laid:
+        torch.manual_seed(seed)
+        gen.manual_seed(seed)
+        U, lam_inv, history = localmesh_domain_map(
+            Xn, normals, config, domain, data, objective, progress=progress,
+            on_stage=None if on_stage is None else lambda r, u: on_stage(r, u[inverse]))
+        return ParamResult(
+            uv=U.cpu().double().numpy()[inverse],
+            lambda_inv=lam_inv.cpu().double().numpy()[inverse],
+            center=center, scale=float(scale), config=config, domain=domain, seed=seed,
+            history=history, seconds=time.perf_counter() - t_start, fingerprint=fingerprint(P),
+            version=__version__,
+        )
+    stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
 
     torch.manual_seed(seed)
     gen.manual_seed(seed)

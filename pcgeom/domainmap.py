@@ -1,0 +1,277 @@
+"""A first map of the local mesh onto any bounded domain: aligned, holes matched, harmonic.
+
+The networks of the paper pull a cloud onto a domain by HAND from a start that knows nothing
+of the domain's holes, so a hole of the cloud lands wherever the first stages happen to put it
+(three-hole face onto the smiling face, ``networks``: no hole on its eye or mouth, 53 min on
+2 cores). The local mesh (:mod:`pcgeom.localmesh`) has boundary loops, and so has the domain;
+matching them gives a start in which every hole is where it belongs:
+
+1. **Loops.** The mesh is made vertex-manifold; its boundary loops in the free LSCM map are
+   the outer loop (largest area) and the holes, by decreasing area. The domain's loops are its
+   outer ring and its holes (:meth:`pcgeom.domains.Domain.boundary_loops`).
+2. **Alignment.** A similarity (mirror or not: estimated normals have no preferred side) takes
+   the free map onto the domain: the scale matches the areas, the translation the area
+   centroids. The rotation and the pairing of the mesh's largest holes with the domain's holes
+   are chosen together, among every pairing and the Procrustes rotation of each (plus 72 evenly
+   spaced rotations), by the smallest mean squared distance of the moved loops to the rings
+   they are paired with, plus the squared distances between paired hole centroids, plus the
+   Chamfer distance of the landmark points to their targets when there are landmarks.
+3. **Boundary values.** Each paired loop is laid on its ring by its arc length in the free
+   map, from the circular shift that puts it closest to its aligned position (the ring's
+   orientation: outer counter-clockwise, holes clockwise). Loops left unpaired (holes of the
+   mesh that are not holes of the domain) stay free.
+4. **Harmonic extension.** The interior is the harmonic map with those boundary values
+   (libigl's cotangent Laplacian), as the disk map of :func:`pcgeom.localmesh.conformal_disk`.
+
+A harmonic map onto a non-convex region may cross a hole near its rim; the refinement that
+follows (LEG on local pairs, HAND onto the domain) and :meth:`Domain.project` mend that.
+
+Measured on face_3holes_small_choi (5053 points, estimated normals) onto ``smile``: every hole
+lands on its eye or the mouth.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from .domains import Domain
+from .errors import InputError
+from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part, _spd_factor,
+                        _submesh, _vertex_manifold)
+
+__all__ = ["harmonic_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS"]
+
+ROTATIONS = 72
+"""Evenly spaced rotations tried by the alignment, besides each pairing's Procrustes one."""
+
+MAX_PAIRINGS = 720
+"""At most this many pairings of mesh holes with domain holes are tried (6 holes: all); above,
+the holes are paired by decreasing area only."""
+
+_SHIFTS = 256
+"""Circular shifts tried when a loop is laid on its ring."""
+
+
+def _signed_area(P: np.ndarray) -> float:
+    """Shoelace area of the closed polygon ``P`` (k, 2): positive when counter-clockwise."""
+    x, y = P[:, 0], P[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def _centroid(P: np.ndarray) -> np.ndarray:
+    """Area centroid of the closed polygon ``P`` (k, 2); the vertex mean if it has no area."""
+    x, y = P[:, 0], P[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    a = cross.sum() / 2
+    if abs(a) < 1e-12 * max(float(np.ptp(P, axis=0).max()) ** 2, 1e-300):
+        return P.mean(axis=0)
+    return np.array([((x + np.roll(x, -1)) * cross).sum(),
+                     ((y + np.roll(y, -1)) * cross).sum()]) / (6 * a)
+
+
+def _rotation(theta: float) -> np.ndarray:
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([[c, -s], [s, c]])
+
+
+class Alignment:
+    """The similarity chosen in step 2: ``u -> scale * R @ M @ (u - source) + target``."""
+
+    def __init__(self, scale: float, rotation: float, mirror: bool, source: np.ndarray,
+                 target: np.ndarray, pairing: tuple[int, ...], score: float) -> None:
+        self.scale = scale
+        """Ratio of the domain's area to the free map's, square-rooted."""
+        self.rotation = rotation
+        """Angle of R, radians."""
+        self.mirror = mirror
+        """M is the reflection v -> -v."""
+        self.source = source
+        """(2,) area centroid of the free map."""
+        self.target = target
+        """(2,) area centroid of the domain."""
+        self.pairing = pairing
+        """Domain hole of each of the mesh's largest holes, in decreasing area."""
+        self.score = score
+        """The criterion of step 2 (smaller is better)."""
+
+    def __call__(self, U: np.ndarray) -> np.ndarray:
+        M = np.diag([1.0, -1.0]) if self.mirror else np.eye(2)
+        A = self.scale * _rotation(self.rotation) @ M
+        return (U - self.source) @ A.T + self.target
+
+
+def _ring_distance2(lines, P: np.ndarray) -> float:
+    """Mean squared distance of the points ``P`` to the shapely line ``lines``."""
+    import shapely
+
+    return float(np.mean(shapely.distance(lines, shapely.points(P)) ** 2))
+
+
+def _chamfer2(A: np.ndarray, B: np.ndarray) -> float:
+    """Symmetric mean squared nearest-neighbour distance between point sets."""
+    from scipy.spatial import cKDTree
+
+    return float(np.mean(cKDTree(B).query(A)[0] ** 2) + np.mean(cKDTree(A).query(B)[0] ** 2))
+
+
+def _align(P: np.ndarray, region_area: float, region_centroid: np.ndarray, outer: np.ndarray,
+           holes: list[np.ndarray], rings: list[np.ndarray], domain: Domain,
+           landmarks: list[tuple[np.ndarray, np.ndarray]]) -> Alignment:
+    """Step 2: the similarity of the free map ``P`` onto the domain (see the module)."""
+    import shapely
+
+    D_holes = rings[1:]
+    h = len(D_holes)
+    m = min(h, len(holes))
+    used = holes[:m]
+    outer_line = shapely.LineString(rings[0])
+    hole_lines = [shapely.LineString(r) for r in D_holes]
+    for line in [outer_line, *hole_lines]:
+        shapely.prepare(line)
+    d_centroids = [_centroid(r[:-1]) for r in D_holes]
+    scale = math.sqrt(domain.area / region_area)
+    target = np.asarray(domain.centroid, dtype=np.float64)
+    if math.perm(h, m) <= MAX_PAIRINGS:
+        pairings = list(itertools.permutations(range(h), m))
+    else:
+        by_area = sorted(range(h), key=lambda j: _signed_area(D_holes[j][:-1]))  # CW: negative
+        pairings = [tuple(by_area[:m])]
+    best = None
+    for mirror in (False, True):
+        M = np.diag([1.0, -1.0]) if mirror else np.eye(2)
+        Q = scale * (P - region_centroid) @ M.T  # (n, 2) centred, scaled, mirrored
+        src = np.array([_centroid(Q[loop]) for loop in used]).reshape(-1, 2)
+        for pairing in pairings:
+            dst = np.array([d_centroids[j] - target for j in pairing]).reshape(-1, 2)
+            thetas = list(2 * np.pi * np.arange(ROTATIONS) / ROTATIONS)
+            if m >= 2:
+                Uh, _, Vt = np.linalg.svd(src.T @ dst)
+                R = (Uh @ Vt).T
+                if np.linalg.det(R) > 0:
+                    thetas.append(math.atan2(R[1, 0], R[0, 0]))
+            for theta in thetas:
+                R = _rotation(theta)
+                Z = Q @ R.T + target
+                score = _ring_distance2(outer_line, Z[outer])
+                for k, j in enumerate(pairing):
+                    score += _ring_distance2(hole_lines[j], Z[used[k]])
+                    score += float(((src[k] @ R.T - dst[k]) ** 2).sum())
+                for index, targets in landmarks:
+                    score += _chamfer2(Z[index], targets)
+                if best is None or score < best.score:
+                    best = Alignment(scale, float(theta), mirror, region_centroid, target,
+                                     tuple(pairing), score)
+    return best
+
+
+def _lay_on_ring(P: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """Points on the closed ``ring`` for the loop ``P`` (k, 2), in the same order and
+    orientation: spaced as ``P`` is along its own length, from the best circular shift."""
+    import shapely
+
+    line = shapely.LineString(ring)
+    seg = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
+    t = np.concatenate([[0.0], np.cumsum(seg)[:-1]]) / max(seg.sum(), 1e-300)  # (k,)
+    shifts = np.arange(_SHIFTS) / _SHIFTS
+    where = ((t[None, :] + shifts[:, None]) % 1.0) * line.length  # (S, k)
+    Q = shapely.get_coordinates(shapely.line_interpolate_point(line, where.ravel()))
+    Q = Q.reshape(_SHIFTS, len(P), 2)
+    best = int(np.argmin(((Q - P[None]) ** 2).sum(axis=(1, 2))))
+    return Q[best]
+
+
+def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: Domain, *,
+                  landmarks=()) -> tuple[np.ndarray, dict]:
+    """Map the local mesh onto a bounded domain (steps 1-4 of the module).
+
+    Parameters
+    ----------
+    X : (N, 3) float64
+        The normalized points.
+    mesh : LocalMesh
+        Their local mesh.
+    free_uv : (N, 2) float64
+        Its free LSCM map (:func:`pcgeom.localmesh.lscm_free`).
+    domain : Domain
+        A bounded domain of one connected region.
+    landmarks : sequence of ((n_k,) int, (m_k, 2) float64)
+        Rows of ``X`` standing for each landmark set, and its targets: they help choose the
+        alignment.
+
+    Returns
+    -------
+    U : (N, 2) float64
+        The map; rows outside the cleaned mesh's main part are interpolated.
+    info : dict
+        ``mesh_holes`` (holes of the mesh), ``domain_holes``, ``paired`` (holes laid on a
+        domain hole), ``mirror``, ``rotation_deg`` of the alignment.
+
+    Raises
+    ------
+    InputError
+        The domain has more than one region, or the mesh has no boundary loop.
+    """
+    if not domain.bounded:
+        raise ValueError("harmonic_onto: the free boundary has no region to map onto")
+    geometry = getattr(domain, "geometry", None)
+    if geometry is not None and geometry.geom_type == "MultiPolygon":
+        raise InputError(f"domain {domain.spec!r} has {len(geometry.geoms)} separate parts; "
+                         "the local-mesh map needs one connected region (use --preset networks)")
+    import igl
+
+    n_all = len(X)
+    faces = _vertex_manifold(mesh.faces)
+    main, V, F = _submesh(X, faces, _main_part(faces, n_all))
+    P = free_uv[main]
+    loops = [np.asarray(loop, dtype=np.int64) for loop in _boundary_loops(F)]
+    if not loops:
+        raise InputError("the local mesh has no boundary loop; a map onto a domain needs one")
+    loops.sort(key=lambda loop: -abs(_signed_area(P[loop])))
+    outer, holes = loops[0], loops[1:]
+    rings = [np.asarray(r, dtype=np.float64) for r in domain.boundary_loops()]
+    tri = P[F]  # (M, 3, 2)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    tri_area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    region_area = float(tri_area.sum())
+    region_centroid = (tri_area[:, None] * tri.mean(axis=1)).sum(axis=0) / region_area
+    remap = np.full(n_all, -1, dtype=np.int64)
+    remap[main] = np.arange(len(main))
+    marks = []
+    for index, targets in landmarks:
+        index = remap[np.asarray(index, dtype=np.int64)]
+        if (index >= 0).any():
+            marks.append((index[index >= 0], np.asarray(targets, dtype=np.float64)))
+    align = _align(P, region_area, region_centroid, outer, holes, rings, domain, marks)
+    Z = align(P)
+
+    fixed, values = [], []
+    pairs = [(outer, rings[0])] + [(holes[k], rings[1 + j]) for k, j in enumerate(align.pairing)]
+    for loop, ring in pairs:
+        # Rings: outer counter-clockwise, holes clockwise; the loop must run the same way.
+        if (_signed_area(Z[loop]) > 0) != (_signed_area(ring[:-1]) > 0):
+            loop = loop[::-1]
+        fixed.append(loop)
+        values.append(_lay_on_ring(Z[loop], ring))
+    fixed_idx = np.concatenate(fixed)
+    fixed_uv = np.vstack(values)
+    n = len(V)
+    L = (-igl.cotmatrix(V, F)).tocsr()  # positive semi-definite
+    free = np.setdiff1d(np.arange(n), fixed_idx)
+    D = np.zeros((n, 2))
+    D[fixed_idx] = fixed_uv
+    if len(free):
+        D[free] = _spd_factor(L[free][:, free])(np.asarray(-(L[free][:, fixed_idx] @ fixed_uv)))
+    if not np.isfinite(D).all():
+        raise InputError("the local mesh of the cloud is degenerate (no harmonic map onto the "
+                         "domain); try the 'networks' preset")
+    U = np.full((n_all, 2), np.nan)
+    U[main] = D
+    known = np.zeros(n_all, dtype=bool)
+    known[main] = True
+    info = {"mesh_holes": len(holes), "domain_holes": len(rings) - 1,
+            "paired": len(align.pairing), "mirror": align.mirror,
+            "rotation_deg": round(math.degrees(align.rotation), 3)}
+    return _interpolate_rest(X, U, known), info
