@@ -134,7 +134,8 @@ def main(argv=None) -> int:
     marks = [{"indices": edges.tolist(), "polylines": TARGET_LINES, "spacing": TARGET_SPACING}]
     (out / "car_landmarks.json").write_text(json.dumps(marks) + "\n")
     car = pcgeom.get_domain("car")
-    config = _common.tiny_config("fast") if args.quick else pcgeom.get_preset("fast")
+    config = (_common.tiny_config("fast", refine_steps=200) if args.quick
+              else pcgeom.get_preset("fast"))
     n_measure = 20_000 if args.quick else 200_000
     clock = _common.Clock()
 

@@ -1,4 +1,4 @@
-"""The local mesh laid on a domain (pcgeom.domainmap) and Domain.project."""
+"""The local mesh laid on a domain (pcgeom.domainmap)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import shapely
 
 from pcgeom.cloud import normalize
 from pcgeom.domainmap import harmonic_onto
-from pcgeom.domains import Annulus, Disk, ShapelyDomain, Smile, Square, get_domain
+from pcgeom.domains import ShapelyDomain, Smile, Square
 from pcgeom.errors import InputError
 from pcgeom.localmesh import local_mesh, lscm_free
 
@@ -90,38 +90,20 @@ def test_harmonic_onto_refuses_a_domain_of_two_parts():
         _map(TwoSquares(), X, normals)
 
 
-# --------------------------------------------------------------------------- Domain.project
+def test_landmarks_turn_the_conformal_disk_map():
+    from pcgeom.domains import Disk
+    from pcgeom.domainmap import align_onto
+    from pcgeom.localmesh import conformal_disk
 
-
-def test_project_moves_outside_points_to_the_nearest_boundary_point():
-    square = Square()
-    P = np.array([[2.0, 0.5], [-3.0, -4.0], [0.2, 0.3], [1.0, 1.0], [0.0, -1.5]])
-    Q = square.project(P)
-    np.testing.assert_allclose(Q, np.clip(P, -1.0, 1.0), atol=1e-12)
-    assert Q is not P and np.array_equal(P[2], [0.2, 0.3])
-
-
-def test_project_onto_the_disk_is_radial_and_exact():
-    disk = get_domain("disk:2")
-    P = np.array([[3.0, 4.0], [0.5, 0.5], [0.0, -2.0]])
-    np.testing.assert_allclose(disk.project(P), [[1.2, 1.6], [0.5, 0.5], [0.0, -2.0]],
-                               atol=1e-15)
-    assert isinstance(disk, Disk)
-
-
-def test_project_out_of_the_annulus_hole_lands_on_the_inner_circle():
-    annulus = Annulus(inner=0.4)
-    theta = np.linspace(0, 2 * np.pi, 17)
-    P = np.column_stack([0.1 * np.cos(theta), 0.1 * np.sin(theta)])
-    Q = annulus.project(P)
-    # Radially onto the inner circle, within the polylines' chord error (1.9e-5 x radius).
-    np.testing.assert_allclose(np.linalg.norm(Q, axis=1), 0.4, atol=1e-5)
-    # The nearest point of a 512-gon seen from near its centre is off radial by at most half
-    # a segment, pi / 512.
-    turn = np.angle((Q[:, 0] + 1j * Q[:, 1]) / (P[:, 0] + 1j * P[:, 1]))
-    assert np.abs(turn).max() <= np.pi / 512 + 1e-9
-
-
-def test_the_free_boundary_has_nothing_to_project_onto():
-    with pytest.raises(ValueError, match="domain 'free': no region to project onto"):
-        get_domain("free").project(np.zeros((1, 2)))
+    disk = Disk()
+    P, X, normals = _sheet(disk, 2000, 0.9, True)
+    Xn, _, _ = normalize(X)
+    mesh = local_mesh(Xn, normals, 24)
+    D = conformal_disk(Xn, mesh, lscm_free(Xn, mesh))
+    edge = np.flatnonzero(P[:, 0] > 0.9)
+    target = np.array([[0.0, -1.0]])  # the bottom of the disk
+    U, info = align_onto(Xn, mesh, D, disk, landmarks=[(edge, target)])
+    assert np.linalg.norm(U[edge].mean(axis=0) - [0.0, -0.95]) < 0.1
+    # Turned and perhaps mirrored, never stretched: the map stays in the disk.
+    assert np.linalg.norm(U, axis=1).max() < 1.0 + 1e-2
+    assert info["domain_holes"] == 0 and info["paired"] == 0

@@ -118,32 +118,6 @@ class Domain(abc.ABC):
             0 on the boundary.
         """
 
-    def project(self, P) -> np.ndarray:
-        """``P`` with every point outside the region moved to its nearest boundary point.
-
-        Points inside (or on the boundary) are returned unchanged. The nearest point is found
-        on the polylines of :meth:`boundary_loops` (shapely's ``shortest_line``), so on a
-        curved boundary it is within the polylines' chord error of the exact one.
-
-        Parameters
-        ----------
-        P : (K, 2) array_like
-
-        Returns
-        -------
-        (K, 2) float64
-            A new array.
-        """
-        import shapely
-
-        P = as_points2d(P).copy()
-        outside = np.flatnonzero(self.signed_distance(P) > 0)
-        if len(outside):
-            outline = shapely.MultiLineString(self.boundary_loops())
-            lines = shapely.shortest_line(outline, shapely.points(P[outside]))
-            P[outside] = shapely.get_coordinates(lines).reshape(-1, 2, 2)[:, 0]
-        return P
-
     @property
     @abc.abstractmethod
     def area(self) -> float:

@@ -97,21 +97,6 @@ class Disk(Domain):
         P = as_points2d(P)
         return np.linalg.norm(P - np.asarray(self.center), axis=1) - self.radius
 
-    def project(self, P) -> np.ndarray:
-        """``P`` with every point outside the disk moved radially onto the circle.
-
-        Returns
-        -------
-        (K, 2) float64
-            A new array.
-        """
-        P = as_points2d(P).copy()
-        c = np.asarray(self.center, dtype=np.float64)
-        r = np.linalg.norm(P - c, axis=1)
-        out = r > self.radius
-        P[out] = c + (P[out] - c) * (self.radius / r[out])[:, None]
-        return P
-
     @property
     def area(self) -> float:
         """``pi radius^2``."""

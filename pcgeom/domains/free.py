@@ -48,12 +48,6 @@ class FreeBoundary(Domain):
         raise ValueError("domain 'free': no region, hence no signed distance; "
                          "choose a bounded domain (e.g. disk)")
 
-    def project(self, P) -> np.ndarray:
-        """Not defined: raises ``ValueError`` (the free boundary has no region)."""
-        as_points2d(P)
-        raise ValueError("domain 'free': no region to project onto; "
-                         "choose a bounded domain (e.g. disk)")
-
     @property
     def area(self) -> float:
         """Infinite."""

@@ -71,10 +71,22 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
     j = torch.as_tensor(j, device=dev)
     with torch.no_grad():
         mapped_spacing = float((U0[i] - U0[j]).norm(dim=-1).median())
-    U = U0.detach().clone().requires_grad_(True)
+        start = U0.detach().clone()
+        step_scale = None
+        if config.local_steps:
+            # Each point's median mapped distance to its neighbours, relative to the median.
+            near = U0[torch.as_tensor(nb[:, 1:], device=dev)] - U0[:, None]  # (N, k, 2)
+            step_scale = (near.norm(dim=-1).median(dim=1).values
+                          / max(mapped_spacing, 1e-300)).clamp_min(1e-3)[:, None]  # (N, 1)
+    # Adam moves the free tensor D; the map is start + step_scale * D.
+    D = torch.zeros_like(start).requires_grad_(True)
     log_l = lam0.detach().clamp_min(1e-12).log().clone().requires_grad_(True)
-    opt = torch.optim.Adam([{"params": [U], "lr": config.lr_spacing * mapped_spacing},
+    opt = torch.optim.Adam([{"params": [D], "lr": config.lr_spacing * mapped_spacing},
                             {"params": [log_l], "lr": config.lr_lambda}])
+
+    def current() -> torch.Tensor:
+        return start + (D if step_scale is None else step_scale * D)
+
     # Each landmark point acts through its nearest cloud point.
     lm_index = [torch.as_tensor(tree.query(p.cpu().double().numpy())[1], device=dev)
                 for p in data.landmark_points]
@@ -83,7 +95,7 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
     log = StageLog(config.steps, "refine", progress)
     for s in range(config.steps):
         batch = Batch(
-            X=X, Y=U, lam_inv=log_l.exp(), sigma=sigma, alpha=config.alpha, pairs=(i, j),
+            X=X, Y=current(), lam_inv=log_l.exp(), sigma=sigma, alpha=config.alpha, pairs=(i, j),
             # All points every step: HAND on a random subset would move only that
             # subset's points and tear them from their neighbours.
             W=data.domain_batch(batch_domain), landmark_index=lm_index,
@@ -101,6 +113,7 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
     if data.W is not None:
         record["hand_backend"] = hand_backend
     if lm_index:
+        U = current().detach()
         record["landmark_hausdorff"] = landmark_fit([U[ix] for ix in lm_index],
                                                     data.landmark_targets)
-    return U.detach(), log_l.detach().exp(), record
+    return current().detach(), log_l.detach().exp(), record
