@@ -582,6 +582,86 @@ def test_unreadable_polygon_files(tmp_path):
         get_domain(str(folder))
 
 
+# --------------------------------------------------------------------------- image masks
+
+
+def _write_mask(path, mask) -> str:
+    from PIL import Image
+
+    Image.fromarray(np.where(mask, 255, 0).astype(np.uint8)).save(path)
+    return str(path)
+
+
+def _pixels(rows: int = 121, cols: int = 161):
+    r, c = np.mgrid[0:rows, 0:cols]
+    return r - (rows - 1) / 2, c - (cols - 1) / 2
+
+
+def test_an_image_mask_of_an_annulus_is_the_annulus(tmp_path):
+    r, c = _pixels()
+    radius = np.hypot(r, c)
+    path = _write_mask(tmp_path / "ring.png", (radius <= 50) & (radius >= 20))
+    domain = get_domain(path)
+    assert isinstance(domain, PolygonDomain) and len(domain.holes) == 1
+    # The outline runs between pixel centres, within half a pixel of the circles of radius
+    # 50 and 20 pixels; the box's side (2) is the outer diameter, 101 pixels.
+    pixel = 1.0 / 50.5
+    outer = np.linalg.norm(np.asarray(domain.shell), axis=1) / pixel
+    inner = np.linalg.norm(np.asarray(domain.holes[0]), axis=1) / pixel
+    assert 49.5 - 1e-9 <= outer.min() and outer.max() <= 50.5 + 1e-9
+    assert 19.5 <= inner.min() and inner.max() <= 20.5
+    low, high = np.pi * (49.5**2 - 20.5**2), np.pi * (50.5**2 - 19.5**2)
+    assert low <= domain.area / pixel**2 <= high
+    np.testing.assert_allclose(domain.centroid, 0.0, atol=1e-3)
+    P = np.array([[0.0, 0.0], [0.7, 0.0], [0.0, -0.7], [0.99, 0.99]])
+    assert domain.contains(P).tolist() == [False, True, True, False]
+    assert get_domain(domain.to_dict()) == domain  # a results file rebuilds it
+
+
+def test_an_image_mask_keeps_y_up(tmp_path):
+    r, c = _pixels()
+    # A triangle with its wide side at the top of the image (small row numbers).
+    path = _write_mask(tmp_path / "tri.png", (r >= -50) & (np.abs(c) <= (50 - r) * 0.8))
+    domain = get_domain(path)
+    ymin, ymax = domain.geometry.bounds[1], domain.geometry.bounds[3]
+    top = domain.contains([[0.8 * domain.geometry.bounds[2], ymax - 0.05]])
+    bottom = domain.contains([[0.8 * domain.geometry.bounds[2], ymin + 0.05]])
+    assert top.tolist() == [True] and bottom.tolist() == [False]
+
+
+def test_bad_image_masks(tmp_path):
+    r, c = _pixels()
+    black = _write_mask(tmp_path / "black.png", np.zeros_like(r, dtype=bool))
+    with pytest.raises(InputError, match=rf"^{re.escape(black)}: the mask has no region pixel"):
+        get_domain(black)
+    two = _write_mask(tmp_path / "two.png", (np.hypot(r, c - 40) < 20) | (np.hypot(r, c + 40) < 20))
+    with pytest.raises(InputError, match=rf"^{re.escape(two)}: the mask has 2 separate regions"):
+        get_domain(two)
+    text = tmp_path / "text.png"
+    text.write_text("not an image")
+    with pytest.raises(InputError, match=rf"^{re.escape(str(text))}: cannot read the image mask"):
+        get_domain(str(text))
+    missing = str(tmp_path / "nowhere.png")
+    with pytest.raises(InputError, match=rf"^{re.escape(missing)}: no such file$"):
+        get_domain(missing)
+
+
+def test_cli_draws_a_mask_domain(tmp_path, capsys):
+    from pcgeom import cli
+    from tests.helpers import assert_cli_fails
+
+    r, c = _pixels()
+    path = _write_mask(tmp_path / "blob.png", np.hypot(r, c / 1.5) < 50)
+    out = tmp_path / "blob_domain.png"
+    assert cli.main(["domains", "show", path, "-o", str(out)]) == 0
+    assert out.stat().st_size > 0
+    capsys.readouterr()
+    black = _write_mask(tmp_path / "black.png", np.zeros_like(r, dtype=bool))
+    assert_cli_fails(capsys, ["domains", "show", black, "-o", str(tmp_path / "x.png")],
+                     "the mask has no region pixel")
+    assert not (tmp_path / "x.png").exists()
+
+
 # --------------------------------------------------------------------------- training
 
 

@@ -53,7 +53,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="output directory (created if missing)")
     p.add_argument("--domain", default="free", metavar="SPEC",
                    help=f"parameter domain: {', '.join(n for n in DOMAINS if n != 'polygon')}, "
-                        "NAME:VALUES or PATH.json, as in 'pcgeom param' (default: free boundary)")
+                        "NAME:VALUES, PATH.json or PATH.png, as in 'pcgeom param' (default: free "
+                        "boundary)")
     p.add_argument("--preset", default="fast", metavar="NAME",
                    help=f"training preset: {', '.join(PRESETS)} (default: fast)")
     p.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")

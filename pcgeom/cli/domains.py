@@ -15,8 +15,8 @@ __all__ = ["configure", "run", "main"]
 NAME = "domains"
 HELP = "list the parameter domains, or draw one"
 DESCRIPTION = ("List the built-in parameter domains (name, spec arguments, area), or draw one "
-               "with 'show'. Any listed name, NAME:VALUES or PATH.json is a valid "
-               "'pcgeom param --domain' value.")
+               "with 'show'. Any listed name, NAME:VALUES, PATH.json or PATH.png (a mask) is "
+               "a valid 'pcgeom param --domain' value.")
 EPILOG = """\
 examples:
   pcgeom domains
@@ -36,7 +36,8 @@ def configure(p) -> None:
     p.add_argument("action", nargs="?", choices=("list", "show"), default="list",
                    metavar="ACTION", help="list (default) or show")
     p.add_argument("spec", nargs="?", metavar="SPEC",
-                   help="with show: a domain, e.g. car, rect:2, annulus:0.4 or PATH.json")
+                   help="with show: a domain, e.g. car, rect:2, annulus:0.4, PATH.json or "
+                        "PATH.png")
     p.add_argument("-o", "--out", metavar="OUT.png", help="with show: the figure to write")
     p.add_argument("--n", type=int_at_least(1), default=2000,
                    help="with show: sample points drawn (default: 2000)")

@@ -68,8 +68,9 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help=f"use a built-in surface instead of INPUT: {', '.join(EXAMPLES)}")
     p.add_argument("--domain", default="free", metavar="SPEC",
                    help=f"parameter domain: {', '.join(n for n in DOMAINS if n != 'polygon')}, "
-                        "NAME:VALUES such as disk:0.5, rect:2 or annulus:0.4, or PATH.json "
-                        "(a polygon with holes, GeoJSON-style); 'pcgeom domains' lists them "
+                        "NAME:VALUES such as disk:0.5, rect:2 or annulus:0.4, PATH.json "
+                        "(a polygon with holes, GeoJSON-style) or PATH.png (a binary mask: "
+                        "its white pixels); 'pcgeom domains' lists them "
                         "(default: free boundary)")
     p.add_argument("--landmarks", metavar="FILE.json",
                    help="landmark pairs: points of the input (indices or 3D points) and their "

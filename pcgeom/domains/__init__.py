@@ -2,9 +2,9 @@
 
 A spec is a name (``"free"``, ``"disk"``, ``"smile"``), a name with values for the domain's
 ``spec_args`` (``"disk:0.5"``: the disk of radius 0.5; ``"rect:2"``: aspect 2), the path of a
-GeoJSON-style polygon file (``"room.json"``), a dict ``{"name": ..., **parameters}`` (what
-result files store, from :meth:`Domain.to_dict`), or a :class:`Domain` itself. New domains
-register their class in :data:`DOMAINS`.
+GeoJSON-style polygon file (``"room.json"``) or of a binary image mask (``"shape.png"``), a
+dict ``{"name": ..., **parameters}`` (what result files store, from :meth:`Domain.to_dict`), or
+a :class:`Domain` itself. New domains register their class in :data:`DOMAINS`.
 """
 
 from __future__ import annotations
@@ -23,6 +23,9 @@ from .shapes import Annulus, Car, Rect, Smile, Square
 __all__ = ["Domain", "ShapelyDomain", "FreeBoundary", "Disk", "Square", "Rect", "Annulus",
            "Smile", "Car", "PolygonDomain", "DOMAINS", "get_domain"]
 
+MASK_SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".gif", ".jpg", ".jpeg")
+"""File names read as a binary image mask (:meth:`PolygonDomain.from_mask`)."""
+
 DOMAINS: dict[str, type[Domain]] = {
     cls.name: cls for cls in (FreeBoundary, Disk, Square, Rect, Annulus, Smile, Car, PolygonDomain)
 }
@@ -37,9 +40,10 @@ def get_domain(spec) -> Domain:
     spec : str, dict or Domain
         ``"name"`` (default parameters), ``"name:v1,v2"`` (numbers for the class's
         ``spec_args``, e.g. ``"disk:0.5"``), a path ending in ``.json`` (a polygon file, read
-        by :meth:`PolygonDomain.from_json`), ``{"name": ..., **parameters}`` as written by
-        :meth:`Domain.to_dict` (or its JSON text, as :attr:`Domain.spec` gives it), or a
-        :class:`Domain`, returned as is.
+        by :meth:`PolygonDomain.from_json`) or in an image suffix of :data:`MASK_SUFFIXES`
+        (a binary mask, :meth:`PolygonDomain.from_mask`), ``{"name": ..., **parameters}`` as
+        written by :meth:`Domain.to_dict` (or its JSON text, as :attr:`Domain.spec` gives it),
+        or a :class:`Domain`, returned as is.
 
     Raises
     ------
@@ -59,6 +63,8 @@ def get_domain(spec) -> Domain:
             raise InputError(f"domain {spec!r}: not valid JSON") from None
     if isinstance(spec, str) and spec.strip().lower().endswith(".json"):
         return PolygonDomain.from_json(spec.strip())
+    if isinstance(spec, str) and spec.strip().lower().endswith(MASK_SUFFIXES):
+        return PolygonDomain.from_mask(spec.strip())
     if isinstance(spec, str):
         name, _, args = spec.partition(":")
         cls = _lookup(name)

@@ -1,4 +1,5 @@
-"""A user polygon with holes, given by its coordinates or read from a GeoJSON-style file."""
+"""A user polygon with holes: given by its coordinates, read from a GeoJSON-style file, or
+traced from a binary image mask."""
 
 from __future__ import annotations
 
@@ -75,6 +76,61 @@ class PolygonDomain(ShapelyDomain):
         rings = _coordinates(data, name)
         try:
             return cls(shell=rings[0], holes=tuple(rings[1:]))
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"{name}: {' '.join(str(exc).split())}") from None
+
+    @classmethod
+    def from_mask(cls, path, size: float = 2.0) -> PolygonDomain:
+        """The region of a binary image mask: its white pixels, as a polygon with holes.
+
+        The image (any format Pillow reads: PNG, BMP, TIFF, JPEG...) is read as greyscale;
+        pixels above 127 are the region. Its outline is the level-0.5 contour between pixel
+        centres (contourpy's filled contours, marching squares), simplified by a quarter of a
+        pixel (shapely, topology kept), with y pointing up, centred on the bounding box and
+        scaled so that the box's longer side is ``size``. The polygon is stored as
+        coordinates, so a results file rebuilds it without the image.
+
+        Raises
+        ------
+        InputError
+            One line naming the file: unreadable, no region pixel, or a region of several
+            separate parts (a domain must be one region).
+        """
+        import contourpy
+        from PIL import Image, UnidentifiedImageError
+
+        name = os.fspath(path)
+        try:
+            with Image.open(name) as image:
+                mask = np.asarray(image.convert("L")) > 127  # (rows, cols)
+        except FileNotFoundError:
+            raise InputError(f"{name}: no such file") from None
+        except (OSError, UnidentifiedImageError, ValueError) as exc:
+            raise InputError(f"{name}: cannot read the image mask: "
+                             f"{' '.join(str(exc).split())}") from None
+        if not mask.any():
+            raise InputError(f"{name}: the mask has no region pixel (white, above 127 in grey)")
+        z = np.pad(mask, 1).astype(np.float64)  # a dark border closes regions at the edge
+        generator = contourpy.contour_generator(z=z, fill_type=contourpy.FillType.OuterOffset)
+        points, offsets = generator.filled(0.5, 1.5)
+        polygons = []
+        for P, cut in zip(points, offsets):
+            rings = [P[a:b] * [1.0, -1.0] for a, b in zip(cut[:-1], cut[1:])]  # y up
+            polygons.append(shapely.Polygon(rings[0], rings[1:]))
+        if len(polygons) > 1:
+            raise InputError(f"{name}: the mask has {len(polygons)} separate regions; a domain "
+                             "must be one region (join them or keep one)")
+        region = shapely.simplify(polygons[0], 0.25, preserve_topology=True)
+        xmin, ymin, xmax, ymax = region.bounds
+        scale = size / max(xmax - xmin, ymax - ymin)
+        center = np.array([xmin + xmax, ymin + ymax]) / 2
+
+        def ring(coords):
+            return (np.asarray(coords)[:-1] - center) * scale
+
+        try:
+            return cls(shell=ring(region.exterior.coords),
+                       holes=tuple(ring(r.coords) for r in region.interiors))
         except (TypeError, ValueError) as exc:
             raise InputError(f"{name}: {' '.join(str(exc).split())}") from None
 
