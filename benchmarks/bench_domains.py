@@ -265,8 +265,9 @@ def render(disk, smile, car, args, started: float) -> str:
            f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', '(unset)')}, "
            f"{args_streams(args)} concurrent stream(s); "
            f"{(time.time() - started) / 60:.0f} min in all; load average at end "
-           f"{[round(x, 2) for x in load] if load else 'n/a'} (above the core count: other "
-           "work competed, and wall times are inflated)",
+           f"{[round(x, 2) for x in load] if load else 'n/a'}"
+           + (" (above the core count: other work competed, and wall times are inflated)"
+              if load and max(load) > (os.cpu_count() or 1) else ""),
            f"- command: `python benchmarks/bench_domains.py {' '.join(args)}`".rstrip(),
            "- wall: the whole `python -m pcgeom param ... --quiet --json` subprocess; angles "
            "and flips on the reference triangles (never used for training); Hausdorff: "

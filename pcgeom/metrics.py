@@ -77,6 +77,11 @@ def angle_distortion(V, F, U) -> AngleReport:
     majority sign (so a mirrored map has no flips); triangles of zero signed area count as
     flipped. ``flipped = min(#positive, #negative) + #zero``.
 
+    A corner at a zero-length edge has no angle (libigl gives NaN): where two vertices of a
+    triangle coincide (two points of the cloud mapped to one, or a degenerate reference
+    triangle), the corners without an angle share what the others leave of pi, the limit of a
+    thinning sliver (pi/2 each for two, pi/3 for three).
+
     Parameters
     ----------
     V : (N, 3) array_like
@@ -110,8 +115,8 @@ def angle_distortion(V, F, U) -> AngleReport:
     V = np.ascontiguousarray(V)
     F = np.ascontiguousarray(F)
     U = np.ascontiguousarray(U)
-    a3 = igl.internal_angles(V, F)  # (M, 3)
-    a2 = igl.internal_angles(np.column_stack([U, np.zeros(len(U))]), F)  # (M, 3)
+    a3 = _defined(igl.internal_angles(V, F))  # (M, 3)
+    a2 = _defined(igl.internal_angles(np.column_stack([U, np.zeros(len(U))]), F))  # (M, 3)
     diff = np.abs(a3 - a2)
     e1 = U[F[:, 1]] - U[F[:, 0]]  # (M, 2)
     e2 = U[F[:, 2]] - U[F[:, 0]]
@@ -119,6 +124,19 @@ def angle_distortion(V, F, U) -> AngleReport:
     pos, neg = int((signed > 0).sum()), int((signed < 0).sum())
     flipped = min(pos, neg) + int((signed == 0).sum())
     return AngleReport(float(diff.mean()), flipped, len(F), diff)
+
+
+def _defined(angles: np.ndarray) -> np.ndarray:
+    """Corner angles (M, 3) with the NaN corners of degenerate triangles filled so that each
+    triangle's angles sum to pi (see :func:`angle_distortion`)."""
+    missing = ~np.isfinite(angles)
+    if missing.any():
+        rows = missing.any(axis=1)
+        known = np.where(missing, 0.0, angles)[rows].sum(axis=1)
+        share = (np.pi - known) / missing[rows].sum(axis=1)
+        angles = angles.copy()
+        angles[rows] = np.where(missing[rows], share[:, None], angles[rows])
+    return angles
 
 
 def hausdorff(A, B) -> float:

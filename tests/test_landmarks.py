@@ -149,8 +149,9 @@ def test_cli_landmarks_reach_training_and_the_report(tmp_path, monkeypatch, caps
     assert fit == pytest.approx(hausdorff(result.uv[edge], target), rel=1e-5)  # float32 training
     assert [r["stage"] for r in result.history] == stages
     assert [len(r["landmark_hausdorff"]) for r in result.history] == [1] * len(stages)
-    # The landmark HAND term is recorded by every stage that optimizes it.
-    assert all("landmarks" in r for r in result.history if r["kind"] != "localmesh")
+    # The landmark HAND term is recorded by every stage (the first local-mesh map's at the
+    # refinement's alpha).
+    assert all(r["landmarks"] > 0 for r in result.history)
     # Measured 0.225 after 2 tiny stages and 30 refinement steps, one thread.
     assert fit < 0.5
 

@@ -97,6 +97,23 @@ def test_degenerate_triangle_counts_as_flipped():
 
 
 @requires_igl
+def test_two_points_mapped_to_one_give_a_finite_distortion():
+    # The right isosceles triangle (angles pi/2 at 0, pi/4 at 1 and 2) with vertices 0 and 2
+    # mapped to one point: the corner at 1 closes (0), the two at the collapsed edge take
+    # pi/2 each, the limit of a thinning sliver.
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    F = np.array([[0, 1, 2]])
+    U = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 0.0]])
+    report = angle_distortion(V, F, U)
+    np.testing.assert_allclose(report.per_corner, [[0.0, np.pi / 4, np.pi / 4]], atol=1e-12)
+    assert report.flipped == 1
+    # A whole triangle collapsed to a point: pi/3 at every corner.
+    report = angle_distortion(V, F, np.zeros((3, 2)))
+    np.testing.assert_allclose(report.per_corner, [[np.pi / 6, np.pi / 12, np.pi / 12]],
+                               atol=1e-12)
+
+
+@requires_igl
 def test_single_triangle_by_hand():
     # Right isosceles triangle (90, 45, 45 degrees) mapped to an equilateral one (60 each).
     V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])

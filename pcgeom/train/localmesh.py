@@ -11,15 +11,19 @@ import torch
 
 from ..cloud import find_outliers, local_pca, surface_variation
 from ..config import ParamConfig
+from ..domainmap import align_onto, harmonic_onto
 from ..domains import Disk, Domain
 from ..errors import InputError
 from ..localmesh import conformal_disk, conformal_factor, local_mesh, lscm_free
+from ..losses import landmark_hand
+from ..metrics import hausdorff
 from ..normals import orient_normals
 from .data import TrainData
 from .objective import LOSS_TERMS, Objective
 from .refine import refine
 
-__all__ = ["localmesh_map", "localmesh_domain_map", "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
+__all__ = ["localmesh_map", "localmesh_domain_map", "CLOSED_SURFACE", "MIN_MESHED",
+           "NOT_A_SURFACE"]
 
 MIN_MESHED = 0.5
 """The smallest share of the points the local mesh's main part must hold."""
@@ -142,8 +146,9 @@ def localmesh_domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: Par
                          ) -> tuple[torch.Tensor, torch.Tensor, list[dict]]:
     """The local mesh laid on a bounded domain, holes on holes, then refined.
 
-    :func:`pcgeom.domainmap.harmonic_onto` gives the first map (the landmarks, when any, help
-    choose its alignment); :func:`pcgeom.train.refine.refine` with
+    :func:`pcgeom.domainmap.harmonic_onto` gives the first map, or for a disk the conformal
+    disk map turned by :func:`pcgeom.domainmap.align_onto` (the landmarks, when any, help
+    choose the alignment); :func:`pcgeom.train.refine.refine` with
     ``config.local_mesh.domain_refine`` then optimizes it on LEG (local pairs), HAND onto the
     domain sample ``data.W`` and the landmark terms.
 
@@ -167,13 +172,11 @@ def localmesh_domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: Par
     records : list of dict
         The ``"localmesh"`` record (as :func:`localmesh_map`'s, plus ``onto``, the holes of
         the mesh and of the domain, how many were paired, the alignment's ``mirror`` and
-        ``rotation_deg``, and ``landmark_hausdorff`` of the first map when there are
-        landmarks), then the refinement's when it has steps.
+        ``rotation_deg``, and, when there are landmarks, the landmark HAND term
+        ``landmarks`` at the refinement's alpha and ``landmark_hausdorff`` of the first map),
+        then the refinement's when it has steps.
     """
     from scipy.spatial import cKDTree
-
-    from ..domainmap import align_onto, harmonic_onto
-    from ..metrics import hausdorff
 
     t0 = time.perf_counter()
     uv, mesh, normals, record = _free_local_map(Xn, normals, config, progress=progress)
@@ -190,7 +193,13 @@ def localmesh_domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: Par
     else:
         U0, info = harmonic_onto(Xn, mesh, uv, domain, landmarks=marks)
     record.update(onto=domain.spec, **info)
+    refine_config = config.local_mesh.domain_refine
     if marks:
+        # The landmark term as the refinement will weigh it (its alpha), and the exact fit.
+        with torch.no_grad():
+            term = landmark_hand([torch.as_tensor(U0[i]) for i, _ in marks],
+                                 [torch.as_tensor(q) for _, q in marks], refine_config.alpha)
+        record["landmarks"] = float(term)
         record["landmark_hausdorff"] = [hausdorff(U0[i], q) for i, q in marks]
     record["seconds"] = time.perf_counter() - t0
     records = [record]
@@ -198,7 +207,6 @@ def localmesh_domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: Par
         on_stage(record, U0)
     U = torch.tensor(U0, device=data.X.device, dtype=data.X.dtype)
     lam_inv = torch.tensor(conformal_factor(Xn, U0), device=data.X.device, dtype=data.X.dtype)
-    refine_config = config.local_mesh.domain_refine
     if refine_config.steps > 0:
         U, lam_inv, refined = refine(data, Xn, (U, lam_inv), objective, refine_config,
                                      normals=normals, progress=progress)

@@ -95,7 +95,8 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
     log = StageLog(config.steps, "refine", progress)
     for s in range(config.steps):
         batch = Batch(
-            X=X, Y=current(), lam_inv=log_l.exp(), sigma=sigma, alpha=config.alpha, pairs=(i, j),
+            X=X, Y=current(), lam_inv=log_l.exp(), sigma=sigma, alpha=config.alpha,
+            pairs=(i, j),
             # All points every step: HAND on a random subset would move only that
             # subset's points and tear them from their neighbours.
             W=data.domain_batch(batch_domain), landmark_index=lm_index,
@@ -112,8 +113,8 @@ def refine(data: TrainData, Xn: np.ndarray, start: tuple[torch.Tensor, torch.Ten
     )
     if data.W is not None:
         record["hand_backend"] = hand_backend
+    U = current().detach()
     if lm_index:
-        U = current().detach()
         record["landmark_hausdorff"] = landmark_fit([U[ix] for ix in lm_index],
                                                     data.landmark_targets)
-    return current().detach(), log_l.detach().exp(), record
+    return U, log_l.detach().exp(), record

@@ -86,7 +86,10 @@ def parametrize(
         Parameter domain or its spec (:func:`pcgeom.domains.get_domain`); ``"free"`` (the
         default) for the free-boundary map (LEG only).
     config : ParamConfig
-        Defaults to the ``fast`` preset.
+        Defaults to the ``fast`` preset. It chooses the map: the free boundary by
+        ``free_map``, a disk without landmarks by ``disk_map``, any other domain or landmarks
+        by ``domain_map`` (``"networks"``: Algorithm 1's stages, then ``refine``;
+        ``"localmesh"``: the local mesh laid on the domain, then ``local_mesh.domain_refine``).
     landmarks : sequence of ((n_k, 3), (m_k, 2)) pairs
         Landmark points on the surface (same frame as ``points``) and their target sets in
         the domain; sizes may differ. Needs a bounded domain.
@@ -95,7 +98,8 @@ def parametrize(
         Seeds torch, the mini-batches and the domain sample; a run is repeatable on one
         device.
     checkpoint : path, optional
-        Written after every stage; with ``resume=True`` a run continues from it.
+        Written after every network stage (the local-mesh maps have none); with
+        ``resume=True`` a run continues from it.
     progress : bool
         tqdm bars on stderr.
     on_stage : callable, optional
