@@ -247,6 +247,42 @@ def verdicts(rows) -> list[str]:
     return out
 
 
+def floors(disk) -> list[str]:
+    """What no map of the clouds can beat: the covering radius of their points on the disk,
+    and the gap a conformal rim leaves."""
+    import math
+
+    from pcgeom import read_points
+    from pcgeom.examples import load_example
+
+    lines = ["What bounds the Hausdorff distance to the disk: the points of a map cannot cover "
+             "it better "
+             "than N points in the densest arrangement (a hexagonal grid, covering radius "
+             "sqrt(2 pi / (sqrt 3 N)) / sqrt 3), and a map whose rim lies on the circle leaves "
+             "the arc between two rim points uncovered unless the rim triangles are crushed:"]
+    for name in dict.fromkeys(r["surface"] for r in disk):
+        if name == "peaks3":
+            V, F = load_example("peaks3")
+        else:
+            path = DATA_DIR / f"{name}.ply"
+            if not path.exists():
+                continue
+            cloud = read_points(path)
+            V, F = cloud.points, cloud.faces
+        import igl
+
+        n, rim = len(V), len(igl.boundary_loop(np.ascontiguousarray(F)))
+        cover = math.sqrt(2 * math.pi / (math.sqrt(3) * n)) / math.sqrt(3)
+        h_max = TARGETS.get(name, (None,))[0]
+        lines.append(f"- {name}: {n} points, covering radius at best {cover:.4f}"
+                     + (f" (target {h_max}: " + ("not ruled out" if cover <= h_max else
+                                                  "out of reach for any map") + ")"
+                        if h_max is not None else "")
+                     + f"; {rim} rim vertices, an arc of 2 pi / {rim} between two evenly spread "
+                       f"ones, half a chord {math.sin(math.pi / rim):.4f}")
+    return lines
+
+
 def args_streams(args) -> str:
     """The ``--streams`` value in a command line (default 3)."""
     return args[args.index("--streams") + 1] if "--streams" in args else "3"
@@ -286,7 +322,8 @@ def render(disk, smile, car, args, started: float) -> str:
                        f"{r['rad']:.4f}{rng} | {r['flipped']:g} ({r['flipped_max']}) of "
                        f"{r['n_faces']} | {r['hausdorff']:.4f} ({r['hausdorff_max']:.4f}) | "
                        f"{r['wall_s']:.1f} |")
-        out += ["", "Targets (issue 11, on the medians):", "", *verdicts(disk), ""]
+        out += ["", "Targets (issue 11, on the medians):", "", *verdicts(disk), "",
+                *floors(disk), ""]
     if smile:
         out += ["`face_3holes_small_choi` (5053 points, three holes) onto `smile` (`fast`: the "
                 "local mesh laid on the domain, its holes on the domain's holes, then refined; "

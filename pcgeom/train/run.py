@@ -138,12 +138,15 @@ def parametrize(
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
     if lm_points and not domain.bounded:
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
-    # Which map: the free boundary by free_map, a disk without landmarks by disk_map, any
-    # other bounded domain (and landmarks) by domain_map.
+    # Which map: the free boundary by free_map, a disk without landmarks by disk_map (then
+    # refined when local_mesh.disk_refine), any other bounded domain (and landmarks) by
+    # domain_map.
     plain_disk = isinstance(domain, Disk) and not landmarks
     free = not domain.bounded and config.free_map == "localmesh"
     disk = plain_disk and config.disk_map == "localmesh"
-    laid = domain.bounded and not plain_disk and config.domain_map == "localmesh"
+    laid = ((disk and config.local_mesh.disk_refine)
+            or (domain.bounded and not plain_disk and config.domain_map == "localmesh"))
+    disk = disk and not laid
     if free or disk:
         uv, lam_inv, record = localmesh_map(Xn, normals, config, domain, device=dev,
                                             dtype=dtype, seed=seed, progress=progress)
