@@ -2,8 +2,9 @@
 
 The networks of the paper pull a cloud onto a domain by HAND from a start that knows nothing
 of the domain's holes, so a hole of the cloud lands wherever the first stages happen to put it
-(three-hole face onto the smiling face, ``networks``: no hole on its eye or mouth). The local mesh (:mod:`pcgeom.localmesh`) has boundary loops, and so has the domain;
-matching them gives a start in which every hole is where it belongs:
+(three-hole face onto the smiling face, ``networks``: no hole on its eye or mouth). The local
+mesh (:mod:`pcgeom.localmesh`) has boundary loops, and so has the domain; matching them gives a
+start in which every hole is where it belongs:
 
 1. **Loops.** The mesh is made vertex-manifold; its boundary loops in the free LSCM map are
    the outer loop (largest area) and the holes, by decreasing area. The domain's loops are its
@@ -43,8 +44,8 @@ import numpy as np
 
 from .domains import Domain
 from .errors import InputError
-from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part, _spd_factor,
-                        _submesh, _vertex_manifold)
+from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part,
+                        _signed_area, _spd_factor, _submesh, _vertex_manifold)
 
 __all__ = ["harmonic_onto", "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS"]
 
@@ -57,12 +58,6 @@ the holes are paired by decreasing area only."""
 
 _SHIFTS = 256
 """Circular shifts tried when a loop is laid on its ring."""
-
-
-def _signed_area(P: np.ndarray) -> float:
-    """Shoelace area of the closed polygon ``P`` (k, 2): positive when counter-clockwise."""
-    x, y = P[:, 0], P[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
 
 def _centroid(P: np.ndarray) -> np.ndarray:
@@ -113,11 +108,12 @@ def _ring_distance2(lines, P: np.ndarray) -> float:
     return float(np.mean(shapely.distance(lines, shapely.points(P)) ** 2))
 
 
-def _chamfer2(A: np.ndarray, B: np.ndarray) -> float:
-    """Symmetric mean squared nearest-neighbour distance between point sets."""
+def _chamfer2(A: np.ndarray, B: np.ndarray, tree_B) -> float:
+    """Symmetric mean squared nearest-neighbour distance between point sets (``tree_B``: the
+    cKDTree of ``B``, built once for every candidate)."""
     from scipy.spatial import cKDTree
 
-    return float(np.mean(cKDTree(B).query(A)[0] ** 2) + np.mean(cKDTree(A).query(B)[0] ** 2))
+    return float(np.mean(tree_B.query(A)[0] ** 2) + np.mean(cKDTree(A).query(B)[0] ** 2))
 
 
 def _align(P: np.ndarray, region_area: float, region_centroid: np.ndarray, outer: np.ndarray,
@@ -134,7 +130,10 @@ def _align(P: np.ndarray, region_area: float, region_centroid: np.ndarray, outer
     hole_lines = [shapely.LineString(r) for r in D_holes]
     for line in [outer_line, *hole_lines]:
         shapely.prepare(line)
+    from scipy.spatial import cKDTree
+
     d_centroids = [_centroid(r[:-1]) for r in D_holes]
+    marks = [(index, targets, cKDTree(targets)) for index, targets in landmarks]
     scale = math.sqrt(domain.area / region_area)
     target = np.asarray(domain.centroid, dtype=np.float64)
     if math.perm(h, m) <= MAX_PAIRINGS:
@@ -162,8 +161,8 @@ def _align(P: np.ndarray, region_area: float, region_centroid: np.ndarray, outer
                 for k, j in enumerate(pairing):
                     score += _ring_distance2(hole_lines[j], Z[used[k]])
                     score += float(((src[k] @ R.T - dst[k]) ** 2).sum())
-                for index, targets in landmarks:
-                    score += _chamfer2(Z[index], targets)
+                for index, targets, tree in marks:
+                    score += _chamfer2(Z[index], targets, tree)
                 if best is None or score < best.score:
                     best = Alignment(scale, float(theta), mirror, region_centroid, target,
                                      tuple(pairing), score)

@@ -416,6 +416,12 @@ def _boundary_loops(faces: np.ndarray) -> list[list[int]]:
     return loops
 
 
+def _signed_area(P: np.ndarray) -> float:
+    """Shoelace area of the closed polygon ``P`` (k, 2): positive when counter-clockwise."""
+    x, y = P[:, 0], P[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
 def _interpolate_rest(X: np.ndarray, U: np.ndarray, known: np.ndarray) -> np.ndarray:
     """Fill the rows of ``U`` not in ``known`` with the inverse-distance mean of the map at
     their 8 nearest known points."""
@@ -468,14 +474,10 @@ def conformal_disk(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> np.nd
     P = free_uv[main]
     n = len(V)
 
-    def area(loop):
-        x, y = P[loop, 0], P[loop, 1]
-        return 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-
     loops = _boundary_loops(F)
     if not loops:
         raise InputError("the local mesh has no boundary loop; a disk map needs one")
-    outer = np.array(max(loops, key=area))
+    outer = np.array(max(loops, key=lambda loop: abs(_signed_area(P[loop]))))
     interior = np.setdiff1d(np.arange(n), outer)
     centre = int(interior[np.argmax(cKDTree(P[outer]).query(P[interior])[0])])
     L = -igl.cotmatrix(V, F)  # positive semi-definite

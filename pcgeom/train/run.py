@@ -142,11 +142,11 @@ def parametrize(
     # refined when local_mesh.disk_refine), any other bounded domain (and landmarks) by
     # domain_map.
     plain_disk = isinstance(domain, Disk) and not landmarks
+    conformal = plain_disk and config.disk_map == "localmesh"
     free = not domain.bounded and config.free_map == "localmesh"
-    disk = plain_disk and config.disk_map == "localmesh"
-    laid = ((disk and config.local_mesh.disk_refine)
+    disk = conformal and not config.local_mesh.disk_refine
+    laid = ((conformal and config.local_mesh.disk_refine)
             or (domain.bounded and not plain_disk and config.domain_map == "localmesh"))
-    disk = disk and not laid
     if free or disk:
         uv, lam_inv, record = localmesh_map(Xn, normals, config, domain, device=dev,
                                             dtype=dtype, seed=seed, progress=progress)
