@@ -221,7 +221,7 @@ def test_a_volume_of_points_is_not_a_surface():
 
 
 def test_disk_map_is_conformal_inside_the_disk_and_beats_the_harmonic_map():
-    """fast maps onto a disk by the local mesh made conformal onto it (discrete Riemann map)."""
+    """fast maps onto a disk by the free map followed by the Riemann map of its region."""
     from pcgeom.apps.baselines import harmonic_disk
     from pcgeom.domains import Disk
     from pcgeom.examples import peaks_surface
@@ -232,8 +232,8 @@ def test_disk_map_is_conformal_inside_the_disk_and_beats_the_harmonic_map():
     assert (np.linalg.norm(result.uv, axis=1) <= 1.0 + 1e-9).all()
     ours = angle_distortion(V, F, result.uv)
     harmonic = angle_distortion(V, F, harmonic_disk(V, F))  # on the true mesh
-    assert ours.mean_abs < 0.5 * harmonic.mean_abs  # measured 0.049 against 0.182
-    assert ours.flipped <= 0.005 * ours.n_faces  # measured 9 of 3042
+    assert ours.mean_abs < 0.25 * harmonic.mean_abs  # measured 0.033 against 0.182
+    assert ours.flipped == 0  # the harmonic map of the local mesh itself folded 9 of 3042
     # Another disk: the same map, moved and scaled.
     moved = parametrize(V, Disk(center=(2.0, -1.0), radius=0.5), progress=False)
     np.testing.assert_allclose(moved.uv, (2.0, -1.0) + 0.5 * result.uv, atol=1e-9)
