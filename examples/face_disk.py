@@ -11,7 +11,7 @@ same way:
   refinement, cut to ``--refine-steps`` 300 of the preset's 1000: onto a domain each step
   also costs HAND of every point against 1024 domain samples), measured after every stage:
   the paper's curves of Hausdorff distance and mean absolute angle distortion against stages;
-- the ``fast`` preset's disk map (the local mesh made conformal onto the disk, one step);
+- the ``fast`` preset's disk map (the free map followed by the Riemann map of its region onto the disk, one step);
 - libigl's harmonic disk map on the true mesh (needs the mesh and its boundary), for scale.
 
 Writes ``face_disk.png`` (maps, curves, histograms) and ``face_disk.json``::

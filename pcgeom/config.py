@@ -245,10 +245,11 @@ class LocalMeshConfig:
     disk_refine: bool = False
     """Refine the conformal disk map too (``ParamConfig.disk_map = "localmesh"``, no
     landmarks), with :attr:`domain_refine`: HAND fills the disk more evenly at a cost in
-    angles. Measured (angle, flips, Hausdorff to the disk; 2 CPU cores): three peaks
-    0.0228 rad, 12, 0.029 -> 0.0267, 0, 0.025 (54 s); face_human_choi with its normals 0.053,
-    98, 0.065 -> 0.070, 573, 0.043 (94 s); bare 0.145, 1180, 0.064 -> 0.089, 1481, 0.042.
-    Off: angles and folds first."""
+    angles. Measured (angle, flips, Hausdorff to the disk; 2 CPU cores, bench_domains): three
+    peaks 0.0167 rad, 0, 0.0248 -> 0.0258, 0, 0.0246 (40 s); face_human_choi with its normals
+    0.0258, 28, 0.063 -> 0.065, 485, 0.0395 (115 s); bare 0.0397, 1192, 0.062 -> 0.063, 1181,
+    0.039. Off: angles and folds first (an area-preserving map of the face would still leave
+    0.030, its own sampling gaps)."""
     domain_refine: RefineConfig = RefineConfig(steps=1000, batch_domain=8192, hand_backend="knn",
                                                local_steps=True)
     """The refinement after the first map onto a domain (``ParamConfig.domain_map =

@@ -93,7 +93,7 @@ def localmesh_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfi
         Uses ``local_mesh`` and, for the free boundary when ``local_mesh.refine_steps > 0``,
         ``refine`` and ``weights``.
     domain : FreeBoundary or Disk
-        A disk gets the free map made conformal onto it
+        A disk gets the free map followed by the Riemann map of its region
         (:func:`pcgeom.localmesh.conformal_disk`), scaled and moved to its radius and centre.
 
     Returns
