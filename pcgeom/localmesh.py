@@ -451,7 +451,10 @@ def _planar_mesh(P: np.ndarray, loop: np.ndarray) -> np.ndarray:
     from scipy.spatial import Delaunay
 
     region = shapely.make_valid(shapely.Polygon(P[loop]))
-    parts = [g for g in getattr(region, "geoms", [region]) if g.geom_type == "Polygon"]
+    parts = [g for g in getattr(region, "geoms", [region])
+             if g.geom_type == "Polygon" and g.area > 0]
+    if not parts or len(P) < 3:
+        return np.empty((0, 3), dtype=np.int64)
     region = shapely.Polygon(max(parts, key=lambda g: g.area).exterior)
     tri = Delaunay(P).simplices.astype(np.int64)
     centroid = P[tri].mean(axis=1)
@@ -535,12 +538,13 @@ def conformal_disk(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> np.nd
     outer = np.array(max(loops, key=lambda loop: abs(_signed_area(P[loop]))))
     T = _planar_mesh(P, outer)
     placed, V2, T = _submesh(np.column_stack([P, np.zeros(len(P))]), T, _main_part(T, len(P)))
-    plane = _boundary_loops(T)
-    if not plane:
-        raise InputError("the local mesh of the cloud is degenerate (its free map covers no "
-                         "region); try the 'networks' preset")
-    rim = np.array(max(plane, key=lambda loop: abs(_signed_area(V2[loop, :2]))))
+    plane = _boundary_loops(T) if len(T) else []
+    rim = np.array(max(plane, key=lambda loop: abs(_signed_area(V2[loop, :2]))) if plane else [],
+                   dtype=np.int64)
     inside = np.setdiff1d(np.arange(len(V2)), rim)
+    if not len(rim) or not len(inside):
+        raise InputError("the local mesh of the cloud is degenerate (its free map covers no "
+                         "region with a point inside); try the 'networks' preset")
     centre = int(inside[np.argmax(cKDTree(V2[rim, :2]).query(V2[inside, :2])[0])])
     U = np.full((n_all, 2), np.nan)
     U[main[placed]] = _harmonic_measure_disk(V2, T, rim, centre)

@@ -255,3 +255,17 @@ def test_optional_refinement_after_the_local_mesh_records_its_loss():
     assert "leg" not in plain.history[0]
     assert not np.allclose(refined.uv, plain.uv)  # the refinement moved the points
     assert angle_distortion(V, F, refined.uv).flipped == 0
+
+
+def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
+    """The disk map's planar triangulation: Delaunay triangles inside the loop, CCW."""
+    from pcgeom.localmesh import _planar_mesh
+
+    P = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.45], [3.0, 0.5]], dtype=float)
+    T = _planar_mesh(P, np.array([0, 1, 2, 3]))
+    assert len(T) == 4 and 5 not in T  # the centre point's fan; the far point is outside
+    e1, e2 = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
+    assert (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] > 0).all()
+    # A loop enclosing no area gives no triangle (conformal_disk then says "degenerate").
+    line = np.array([[0, 0], [1, 0], [2, 0.0]])
+    assert _planar_mesh(line, np.array([0, 1, 2])).shape == (0, 3)
