@@ -128,11 +128,18 @@ def refined_row(name: str, src, mesh, kind: str, seed: int) -> dict:
     rep = map_report(result.uv, pcgeom.get_domain("disk"), *mesh)
     log(f"{name} ({kind}) disk_refine seed {seed}: {seconds:.1f} s, "
         f"H {rep['domain_hausdorff']:.4f}, {rep['mean_abs_angle_rad']:.4f} rad")
-    return {"surface": name, "method": f"pcgeom `fast` + `disk_refine` ({kind}; in process)",
-            "needs_mesh": "no", "runs": 1, "rad": rep["mean_abs_angle_rad"], "rad_range": None,
-            "flipped": rep["flipped"], "flipped_max": rep["flipped"], "n_faces": rep["n_faces"],
+    return _report_row(name, f"pcgeom `fast` + `disk_refine` ({kind}; in process)", "no", rep,
+                       seconds, train_s=seconds)
+
+
+def _report_row(name: str, method: str, needs_mesh: str, rep: dict, seconds: float, *,
+                train_s: float | None) -> dict:
+    """A one-run disk row from a :func:`pcgeom.apps.evaluate.map_report`."""
+    return {"surface": name, "method": method, "needs_mesh": needs_mesh, "runs": 1,
+            "rad": rep["mean_abs_angle_rad"], "rad_range": None, "flipped": rep["flipped"],
+            "flipped_max": rep["flipped"], "n_faces": rep["n_faces"],
             "hausdorff": rep["domain_hausdorff"], "hausdorff_max": rep["domain_hausdorff"],
-            "wall_s": seconds, "train_s": seconds}
+            "wall_s": seconds, "train_s": train_s}
 
 
 def disk_rows(seeds, work: Path, refine: bool = True) -> list[dict]:
@@ -171,13 +178,8 @@ def disk_rows(seeds, work: Path, refine: bool = True) -> list[dict]:
             U = harmonic_disk(V, F)
             seconds = time.perf_counter() - t0
             rep = map_report(U, disk, V, F)
-            rows.append({"surface": name, "method": "harmonic disk map (libigl, true mesh)",
-                         "needs_mesh": "yes (+ boundary)", "runs": 1,
-                         "rad": rep["mean_abs_angle_rad"], "rad_range": None,
-                         "flipped": rep["flipped"], "flipped_max": rep["flipped"],
-                         "n_faces": rep["n_faces"], "hausdorff": rep["domain_hausdorff"],
-                         "hausdorff_max": rep["domain_hausdorff"], "wall_s": seconds,
-                         "train_s": None})
+            rows.append(_report_row(name, "harmonic disk map (libigl, true mesh)",
+                                    "yes (+ boundary)", rep, seconds, train_s=None))
     return rows
 
 
