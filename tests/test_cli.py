@@ -19,7 +19,7 @@ from pcgeom import ParamResult, __version__, cli, parametrize
 from pcgeom.domains import DOMAINS, Disk, Smile
 from pcgeom.examples import peaks_surface
 from pcgeom.io import read_points, write_ply_atomic
-from pcgeom.metrics import angle_distortion, domain_hausdorff
+from pcgeom.metrics import angle_distortion, domain_hausdorff, surface_hausdorff
 
 from tests.helpers import assert_cli_fails, tiny_preset
 
@@ -302,6 +302,7 @@ def test_mesh_input_json_ply_and_plot(tmp_path, capsys, tiny):
     assert _files(out_dir) == {"m.npz", "m.ply", "m.png"}
     with np.load(out_dir / "m.npz") as z:
         assert report["domain_hausdorff"] == domain_hausdorff(z["uv"], Disk())
+        assert report["surface_hausdorff"] == surface_hausdorff(z["uv"], F, Disk())
 
     mapped = read_points(out_dir / "m.ply")
     assert mapped.points.shape == (len(V), 3)
@@ -323,6 +324,7 @@ def test_bare_cloud_has_no_evaluation(tmp_path, capsys, tiny):
     report = json.loads(capsys.readouterr().out)
     assert report["evaluation"] is None
     assert report["domain_hausdorff"] is None  # free boundary: no domain to fit
+    assert report["surface_hausdorff"] is None
     assert report["out"] == str(tmp_path / "scan_uv.npz")  # default: next to the input
     with np.load(tmp_path / "scan_uv.npz") as z:
         assert "faces" not in z.files
@@ -515,6 +517,7 @@ def test_evaluate_reports_what_made_a_pcgeom_map(tmp_path, capsys, tiny):
     assert report["preset"] == "custom"  # the tiny fixture's config, not a named preset
     result = ParamResult.load(out)
     assert report["domain_hausdorff"] == domain_hausdorff(result.uv, Disk(radius=0.5))
+    assert report["surface_hausdorff"] == surface_hausdorff(result.uv, F, Disk(radius=0.5))
 
 
 def test_evaluate_warns_in_one_line_on_a_bare_uv_file(tmp_path, capsys, mesh_and_map):

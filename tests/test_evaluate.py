@@ -17,7 +17,7 @@ from pcgeom.apps.plot import plot_angle_histogram
 from pcgeom.domains import Disk
 from pcgeom.examples import peaks_surface
 from pcgeom.io import write_ply_atomic
-from pcgeom.metrics import angle_distortion, domain_hausdorff, hausdorff
+from pcgeom.metrics import angle_distortion, domain_hausdorff, hausdorff, surface_hausdorff
 
 from tests.helpers import tiny_preset
 
@@ -57,12 +57,14 @@ def test_two_triangles_by_hand():
     assert (report["flipped"], report["n_faces"], report["flipped_percent"]) == (0, 2, 0.0)
     assert report["n_points"] == 4
     assert report["domain_hausdorff"] is None and report["landmark_hausdorff"] is None
+    assert report["surface_hausdorff"] is None
 
 
 def test_report_without_faces_has_no_angle_figures():
     report = map_report(np.zeros((5, 2)))
     assert report == {"n_points": 5, **dict.fromkeys(angle_figures(None)),
-                      "domain_hausdorff": None, "landmark_hausdorff": None}
+                      "domain_hausdorff": None, "surface_hausdorff": None,
+                      "landmark_hausdorff": None}
 
 
 def test_domain_and_landmark_distances_of_a_trained_map():
@@ -73,6 +75,9 @@ def test_domain_and_landmark_distances_of_a_trained_map():
                          progress=False)
     report = map_report(result.uv, result.domain, V, F, history=result.history)
     assert report["domain_hausdorff"] == domain_hausdorff(result.uv, Disk())
+    # The mapped triangles fill the disk closer than the mapped points (no sampling floor).
+    assert report["surface_hausdorff"] == surface_hausdorff(result.uv, F, Disk())
+    assert report["surface_hausdorff"] < report["domain_hausdorff"]
     (fit,) = report["landmark_hausdorff"]
     assert fit == result.history[-1]["landmark_hausdorff"][0]
     assert fit == pytest.approx(hausdorff(result.uv[edge], targets), rel=1e-5)  # float32 run

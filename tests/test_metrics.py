@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from scipy.spatial.distance import cdist
 
-from pcgeom.domains import Disk, FreeBoundary
+from pcgeom.domains import Annulus, Disk, FreeBoundary, Square
 from pcgeom.errors import InputError
-from pcgeom.metrics import AngleReport, angle_distortion, domain_hausdorff, hausdorff
+from pcgeom.metrics import (AngleReport, angle_distortion, domain_hausdorff, hausdorff,
+                            surface_hausdorff)
 from pcgeom.examples import peaks_surface
 
 requires_igl = pytest.mark.skipif(importlib.util.find_spec("igl") is None, reason="needs libigl")
@@ -261,3 +262,78 @@ def test_domain_hausdorff_is_exact_outside_and_fine_inside():
     assert 0.05 - 0.004 <= got < 0.05 + np.sqrt(np.pi / 20000)
     # A cloud that covers the disk densely reads near zero: the two samples' spacings only.
     assert domain_hausdorff(cover, disk) < np.sqrt(np.pi / 20000)
+
+
+def _grid(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The square [-1, 1]^2 as a k x k grid of cells, two triangles each. U (k+1)^2 x 2."""
+    t = np.linspace(-1.0, 1.0, k + 1)
+    U = np.stack(np.meshgrid(t, t, indexing="ij"), axis=-1).reshape(-1, 2)
+    i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
+    a = (i * (k + 1) + j).ravel()
+    b, c, d = a + k + 1, a + k + 2, a + 1
+    return U, np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+
+
+def test_surface_hausdorff_of_a_mesh_that_tiles_its_domain_is_zero():
+    U, F = _grid(8)
+    assert surface_hausdorff(U, F, Square()) < 1e-12
+    # Its 81 vertices alone leave gaps of half a cell's diagonal: the sampling floor the
+    # surface measure does not have.
+    assert domain_hausdorff(U, Square()) == pytest.approx(np.hypot(0.125, 0.125), abs=0.004)
+
+
+def test_surface_hausdorff_reads_a_hole_and_a_shift():
+    U, F = _grid(8)
+    # Drop the two triangles of the cell [0, 0.25]^2: its centre is 0.125 from the rest.
+    cell = np.all(U[F] >= -1e-12, axis=(1, 2)) & np.all(U[F] <= 0.25 + 1e-12, axis=(1, 2))
+    assert cell.sum() == 2
+    got = surface_hausdorff(U, F[~cell], Square())
+    assert 0.125 - np.sqrt(4.0 / 200_000) <= got <= 0.125 + 1e-12
+    # Shifted by 0.3: exactly 0.3 outside (vertices), and the strip x < -0.7 is uncovered.
+    assert surface_hausdorff(U + [0.3, 0.0], F, Square()) == pytest.approx(0.3, abs=1e-9)
+
+
+def test_surface_hausdorff_of_an_inscribed_polygon_is_its_sagitta():
+    k = 16
+    ring = np.exp(2j * np.pi * np.arange(k) / k)
+    U = np.vstack([[0.0, 0.0], np.column_stack([ring.real, ring.imag])])
+    F = np.column_stack([np.zeros(k, int), 1 + np.arange(k), 1 + (np.arange(k) + 1) % k])
+    sagitta = 1.0 - np.cos(np.pi / k)  # 0.0192
+    got = surface_hausdorff(U, F, Disk())
+    assert sagitta - np.sqrt(np.pi / 200_000) <= got <= sagitta + 1e-12
+    # The folded copy of the same fan (every triangle reversed) covers the same region.
+    assert surface_hausdorff(U, F[:, ::-1], Disk()) == pytest.approx(got, abs=1e-12)
+
+
+def test_surface_hausdorff_sees_a_triangle_across_a_hole_with_its_vertices_inside():
+    """A non-convex domain: a triangle over the annulus's hole, its three vertices inside
+    the annulus, reaches the centre, 0.4 from the region; its vertices alone read 0."""
+    domain = Annulus(inner=0.4)
+    from scipy.spatial import Delaunay
+
+    U = np.vstack([domain.sample(3000, seed=3), domain.boundary(400)])
+    F = Delaunay(U).simplices
+    F = F[domain.contains(U[F].mean(axis=1))]
+    base = surface_hausdorff(U, F, domain)
+    assert base < 0.01  # the two circles' chords only
+    corners = np.array([[0.6, 0.0], [-0.3, 0.5], [-0.3, -0.5]])
+    assert np.all(domain.contains(corners))
+    V = np.vstack([U, corners])
+    across = np.vstack([F, [[len(U), len(U) + 1, len(U) + 2]]])
+    got = surface_hausdorff(V, across, domain)
+    assert 0.39 <= got <= 0.4 + 1e-9
+    assert domain_hausdorff(V, domain) < 0.05
+
+
+def test_surface_hausdorff_errors():
+    U, F = _grid(2)
+    with pytest.raises(TypeError, match="domain: expected a pcgeom.domains.Domain, got str"):
+        surface_hausdorff(U, F, "disk")
+    with pytest.raises(ValueError, match=r"^domain: 'free' has no region to measure a distance"):
+        surface_hausdorff(U, F, FreeBoundary())
+    with pytest.raises(InputError, match="F"):
+        surface_hausdorff(U, F + 100, Square())
+    with pytest.raises(InputError, match="F: expected at least one face, got none"):
+        surface_hausdorff(U, np.zeros((0, 3), int), Square())
+    with pytest.raises(ValueError, match=r"U: expected shape \(N, 2\), got \(9, 3\)"):
+        surface_hausdorff(np.zeros((9, 3)), F, Square())

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..cloud import _one_line
 from ..domains import Domain
-from ..metrics import AngleReport, angle_distortion, domain_hausdorff
+from ..metrics import AngleReport, angle_distortion, domain_hausdorff, surface_hausdorff
 from .baselines import BASELINES
 
 __all__ = ["map_report", "angle_figures", "landmark_hausdorff", "EVALUATION_BASELINES",
@@ -63,11 +63,13 @@ def landmark_hausdorff(history) -> list[float] | None:
 
 
 def _report(U: np.ndarray, domain: Domain | None, angles: AngleReport | None,
-            history) -> dict:
+            history, F=None) -> dict:
     report = {"n_points": int(len(U)), **angle_figures(angles), "domain_hausdorff": None,
-              "landmark_hausdorff": landmark_hausdorff(history)}
+              "surface_hausdorff": None, "landmark_hausdorff": landmark_hausdorff(history)}
     if domain is not None and domain.bounded:
         report["domain_hausdorff"] = domain_hausdorff(U, domain)
+        if F is not None:
+            report["surface_hausdorff"] = surface_hausdorff(U, F, domain)
     return report
 
 
@@ -79,7 +81,8 @@ def map_report(U, domain: Domain | None = None, V=None, F=None, history=None) ->
     U : (N, 2) array_like
         The map.
     domain : Domain, optional
-        Its parameter domain; a bounded one adds ``domain_hausdorff``.
+        Its parameter domain; a bounded one adds ``domain_hausdorff``, and with faces
+        ``surface_hausdorff``.
     V, F : (N, 3) and (M, 3) array_like, optional
         Reference mesh (one vertex per row of ``U``); adds the angle distortion and flips.
     history : list of dict, optional
@@ -90,13 +93,17 @@ def map_report(U, domain: Domain | None = None, V=None, F=None, history=None) ->
     dict
         ``n_points``; when faces are given, :func:`angle_figures` (``mean_abs_angle_rad``,
         ``median_abs_angle_rad``, ``p95_abs_angle_rad``, ``max_abs_angle_rad``, ``flipped``,
-        ``n_faces``, ``flipped_percent``); ``domain_hausdorff`` when the domain is bounded;
+        ``n_faces``, ``flipped_percent``); ``domain_hausdorff`` when the domain is bounded:
+        the mapped points' Hausdorff distance to its region
+        (:func:`pcgeom.metrics.domain_hausdorff`), and with faces ``surface_hausdorff``, the
+        mapped triangles' (:func:`pcgeom.metrics.surface_hausdorff`, without the floor the
+        cloud's own sampling gaps put under the first);
         ``landmark_hausdorff`` (one distance per landmark set) when the history records one.
         Keys whose measure does not apply are None.
     """
     U = np.asarray(U, dtype=np.float64)
     angles = angle_distortion(V, F, U) if F is not None else None
-    return _report(U, domain, angles, history)
+    return _report(U, domain, angles, history, F)
 
 
 @dataclass(frozen=True)
@@ -206,7 +213,7 @@ def evaluate_map(U, V, F, domain: Domain | None = None, history=None,
     """
     U = np.asarray(U, dtype=np.float64)
     angles = angle_distortion(V, F, U)
-    report = _report(U, domain, angles, history)
+    report = _report(U, domain, angles, history, F)
     runs = tuple(run_baselines(V, F, baselines))
     report["baselines"] = {run.name: run.to_dict() for run in runs}
     return Evaluation(report, angles, runs, U, np.asarray(F, dtype=np.int64), domain,

@@ -117,6 +117,18 @@ def print_angles(report: dict) -> None:
           f"({report['flipped_percent']:.2f}%)")
 
 
+def print_domain_fit(report: dict, spec: str | None) -> None:
+    """The human lines for a map's fit to its bounded domain (``map_report`` keys): the
+    mapped points' Hausdorff distance, and the mapped reference triangles' when the input
+    had them."""
+    if report["domain_hausdorff"] is None:
+        return
+    print(f"Hausdorff distance of the map to the {spec} domain: "
+          f"{report['domain_hausdorff']:.4f} (points)"
+          + ("" if report.get("surface_hausdorff") is None
+             else f", {report['surface_hausdorff']:.4f} (reference triangles)"))
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings as one line, ``pcgeom: warning: ...``, like the errors."""
     print(f"pcgeom: warning: {' '.join(str(message).split())}", file=sys.stderr)

@@ -11,7 +11,8 @@ from pathlib import Path
 from ..apps.evaluate import EVALUATION_BASELINES, PLOT_FILES, evaluate_map
 from ..errors import InputError
 from ..io import ParamResult, check_writable, read_points
-from ._common import EXIT_OK, distinct_paths, print_angles, run_command, standalone_parser
+from ._common import (EXIT_OK, distinct_paths, print_angles, print_domain_fit, run_command,
+                      standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -32,8 +33,8 @@ examples:
       a .png path writes the angle histogram only
 
 MAP.npz is a file written by 'pcgeom param' (pcgeom.ParamResult), one row per vertex of MESH.
-The Hausdorff distance of the map to its domain is reported for a bounded domain, and that of
-each landmark set to its targets for a map trained with landmarks (its last stage's record).
+The Hausdorff distance of the map to its domain is reported for a bounded domain (of the mapped
+points, and of the mesh's mapped triangles), and that of each landmark set to its targets for a map trained with landmarks (its last stage's record).
 The baselines need a mesh with a boundary; on a closed mesh they are reported as not run.
 """
 
@@ -114,9 +115,7 @@ def run(args) -> int:
     made = (f" (pcgeom {result.version}, preset {result.preset}, seed {result.seed})"
             if result.config is not None else "")
     print(f"{args.map} on {args.mesh}: {report['n_points']} points{made}")
-    if report["domain_hausdorff"] is not None:
-        print(f"Hausdorff distance of the map to the {result.domain.spec} domain: "
-              f"{report['domain_hausdorff']:.4f}")
+    print_domain_fit(report, result.domain.spec if result.domain else None)
     if report["landmark_hausdorff"] is not None:
         print("Hausdorff distance of each landmark set to its targets: "
               + ", ".join(f"{d:.4f}" for d in report["landmark_hausdorff"]))

@@ -22,7 +22,8 @@ from ..errors import InputError
 from ..examples import EXAMPLES, load_example
 from ..io import check_writable, read_landmarks, read_points, write_ply_atomic
 from ..train import LOSS_TERMS, parametrize, resolve_device
-from ._common import EXIT_OK, distinct_paths, print_angles, run_command, seed, standalone_parser
+from ._common import (EXIT_OK, distinct_paths, print_angles, print_domain_fit, run_command,
+                      seed, standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -189,6 +190,7 @@ def run(args) -> int:
         "landmark_hausdorff": final.get("landmark_hausdorff"),
         "evaluation": evaluation,
         "domain_hausdorff": report["domain_hausdorff"],
+        "surface_hausdorff": report["surface_hausdorff"],
     }
     if args.json:
         print(json.dumps(summary))
@@ -201,9 +203,7 @@ def run(args) -> int:
     print(f"method {summary['method']}, normals {summary['normals']}{note}")
     if summary["loss"]:
         print("final loss: " + ", ".join(f"{k} {v:.4g}" for k, v in summary["loss"].items()))
-    if summary["domain_hausdorff"] is not None:
-        print(f"Hausdorff distance of the map to the {domain.spec} domain: "
-              f"{summary['domain_hausdorff']:.4f}")
+    print_domain_fit(summary, domain.spec)
     if summary["landmark_hausdorff"] is not None:
         print("Hausdorff distance of each landmark set to its targets: "
               + ", ".join(f"{d:.4f}" for d in summary["landmark_hausdorff"]))
