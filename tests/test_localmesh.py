@@ -259,6 +259,8 @@ def test_optional_refinement_after_the_local_mesh_records_its_loss():
 
 def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
     """The disk map's planar triangulation: Delaunay triangles inside the loop, CCW."""
+    import shapely
+
     from pcgeom.localmesh import _planar_mesh
 
     P = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.45], [3.0, 0.5]], dtype=float)
@@ -266,6 +268,16 @@ def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
     assert len(T) == 4 and 5 not in T  # the centre point's fan; the far point is outside
     e1, e2 = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
     assert (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] > 0).all()
+    # A point just outside a loop edge that is not a Delaunay edge: the Delaunay triangle
+    # from it to the loop and an inside point has its centroid inside, yet it crosses the
+    # loop. Only triangles that lie inside are kept, so that point stays off the mesh.
+    P = np.array([[0, 0], [2, 0.1], [4, 0], [4, 4], [0, 4], [2, 0.3], [1, 0.02], [2, 2]],
+                 dtype=float)
+    loop = np.array([0, 1, 2, 3, 4])
+    T = _planar_mesh(P, loop)
+    assert len(T) and 6 not in T
+    polygon = shapely.Polygon(P[loop]).buffer(1e-9)
+    assert shapely.contains(polygon, shapely.polygons(P[T])).all()
     # A loop enclosing no area gives no triangle (conformal_disk then says "degenerate").
     line = np.array([[0, 0], [1, 0], [2, 0.0]])
     assert _planar_mesh(line, np.array([0, 1, 2])).shape == (0, 3)
