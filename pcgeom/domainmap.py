@@ -195,7 +195,7 @@ def _laid_out(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, domain: Domain, la
         raise ValueError("the free boundary has no region to map onto")
     geometry = getattr(domain, "geometry", None)
     if geometry is not None and geometry.geom_type == "MultiPolygon":
-        raise InputError(f"domain {domain.spec!r} has {len(geometry.geoms)} separate parts; "
+        raise InputError(f"domain {domain.label!r} has {len(geometry.geoms)} separate parts; "
                          "the local-mesh map needs one connected region (use --preset networks)")
     n_all = len(X)
     faces = _vertex_manifold(mesh.faces)

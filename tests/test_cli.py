@@ -629,3 +629,27 @@ def test_domains_command_has_its_own_main(capsys):
     assert "usage: pcgeom domains" in out and "pcgeom domains show smile -o smile.png" in out
     assert domains_command.main(["show", "car"]) == 2
     assert capsys.readouterr().err == "pcgeom: error: show needs an output file: -o OUT.png\n"
+
+
+def test_polygon_domain_is_named_by_its_file_and_its_size(tmp_path, capsys, tiny):
+    """A polygon's spec holds all its coordinates: the JSON gives the file the user named,
+    the human lines a short label, and the map file still holds the whole polygon."""
+    V, F = _grid(12)
+    mesh = tmp_path / "mesh.ply"
+    write_ply_atomic(mesh, V, F)
+    room = tmp_path / "room.json"
+    shell = [[-1, -1], [1, -1], [1, 1], [-1, 1]]
+    hole = [[-0.2, -0.2], [0.2, -0.2], [0.2, 0.2], [-0.2, 0.2]]
+    room.write_text(json.dumps({"type": "Polygon", "coordinates": [shell, hole]}))
+    out = tmp_path / "m.npz"
+    argv = ["param", str(mesh), "--domain", str(room), "--quiet", "--out", str(out)]
+    assert cli.main(argv + ["--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["domain"] == str(room)
+    assert report["surface_hausdorff"] is not None
+    assert ParamResult.load(out).domain.holes == (tuple(map(tuple, hole)),)
+    assert cli.main(argv) == 0
+    text = capsys.readouterr().out
+    assert "domain polygon of 8 vertices with 1 hole, device" in text
+    assert "to its domain (polygon of 8 vertices with 1 hole): " in text
+    assert "[-1.0" not in text

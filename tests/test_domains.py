@@ -769,3 +769,14 @@ def test_disk_refine_fills_the_disk_after_the_conformal_map(one_thread):
     # closes 0.029 -> 0.024 (BENCHMARKS.md has the CLI's runs, LocalMeshConfig the figures).
     assert after <= before + 1e-3, (before, after)
     assert np.abs(refined.uv - plain.uv).max() > 1e-3  # the refinement moved the map
+
+
+def test_label_is_the_spec_unless_it_holds_coordinates():
+    assert Disk().label == "disk" and Disk(radius=0.5).label == "disk:0.5"
+    assert get_domain("annulus:0.4").label == "annulus:0.4"
+    square = [[0, 0], [1, 0], [1, 1], [0, 1]]
+    small = [[0.4, 0.4], [0.6, 0.4], [0.6, 0.6]]
+    assert PolygonDomain(shell=square).label == "polygon of 4 vertices"
+    two = PolygonDomain(shell=square, holes=(small, [[0.1, 0.1], [0.2, 0.1], [0.2, 0.2]]))
+    assert two.label == "polygon of 10 vertices with 2 holes"
+    assert len(two.spec) > 100  # what the label replaces

@@ -340,7 +340,7 @@ def _check_request(out_dir, domain: Domain, *, boundary: bool, reconstruct: bool
         raise InputError(f"{os.fspath(out_dir)}: output directory is not writable")
     if (boundary or reconstruct) and domain.bounded:
         raise InputError(f"boundary loops and reconstruction need a free-boundary map; drop "
-                         f"--domain {domain.spec}")
+                         f"--domain {domain.label}")
     for label, value, minimum in (("target_vertices", target_vertices, 3),
                                   ("threads_per_worker", threads_per_worker, 1),
                                   ("retries", retries, 0)):

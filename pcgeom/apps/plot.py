@@ -151,14 +151,9 @@ def plot_domain(domain, path, n: int = 2000, seed: int = 0, title: str | None = 
     ax.set_xlabel("u")
     ax.set_ylabel("v")
     ax.set_title(title if title is not None else
-                 f"{_short_spec(domain)}: area {domain.area:.4g}, "
+                 f"{domain.label}: area {domain.area:.4g}, "
                  f"{len(domain.boundary_loops())} boundary loop(s)")
     return _save_png_atomic(fig, path)
-
-
-def _short_spec(domain, limit: int = 40) -> str:
-    """The domain's spec, or its name when the spec is long (a polygon's coordinates)."""
-    return domain.spec if len(domain.spec) <= limit else domain.name
 
 
 def _positive_or_nan(x) -> float:

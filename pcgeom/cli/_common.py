@@ -97,14 +97,14 @@ def load_free_map(args, points, purpose: str, domain=None, hint: str = ""):
     if domain is not None and domain.bounded:
         if trained is None:
             raise InputError(f"{args.map}: is a free-boundary map, not a map onto "
-                             f"{domain.spec!r} (--domain); drop --domain, or map {args.input} "
+                             f"{domain.label!r} (--domain); drop --domain, or map {args.input} "
                              f"with pcgeom param --domain {domain.spec}")
         if trained.to_dict() != domain.to_dict():
-            raise InputError(f"{args.map}: was trained onto the domain {trained.spec!r}, not "
-                             f"{domain.spec!r} (--domain)")
+            raise InputError(f"{args.map}: was trained onto the domain {trained.label!r}, not "
+                             f"{domain.label!r} (--domain)")
         return result
     if trained is not None:
-        raise InputError(f"{args.map}: was trained onto the domain {trained.spec!r}; "
+        raise InputError(f"{args.map}: was trained onto the domain {trained.label!r}; "
                          f"{purpose} needs a free-boundary map (pcgeom param without --domain)"
                          + hint)
     return result
@@ -123,7 +123,7 @@ def print_domain_fit(report: dict, spec: str | None) -> None:
     had them."""
     if report["domain_hausdorff"] is None:
         return
-    print(f"Hausdorff distance of the map to the {spec} domain: "
+    print(f"Hausdorff distance of the map to its domain ({spec}): "
           f"{report['domain_hausdorff']:.4f} (points)"
           + ("" if report.get("surface_hausdorff") is None
              else f", {report['surface_hausdorff']:.4f} (reference triangles)"))

@@ -115,7 +115,7 @@ def run(args) -> int:
     made = (f" (pcgeom {result.version}, preset {result.preset}, seed {result.seed})"
             if result.config is not None else "")
     print(f"{args.map} on {args.mesh}: {report['n_points']} points{made}")
-    print_domain_fit(report, result.domain.spec if result.domain else None)
+    print_domain_fit(report, result.domain.label if result.domain else None)
     if report["landmark_hausdorff"] is not None:
         print("Hausdorff distance of each landmark set to its targets: "
               + ", ".join(f"{d:.4f}" for d in report["landmark_hausdorff"]))

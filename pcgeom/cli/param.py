@@ -17,7 +17,7 @@ import numpy as np
 from ..apps.evaluate import map_report
 from ..cloud import validate_points
 from ..config import PRESETS, get_preset
-from ..domains import DOMAINS, get_domain
+from ..domains import DOMAINS, PolygonDomain, get_domain
 from ..errors import InputError
 from ..examples import EXAMPLES, load_example
 from ..io import check_writable, read_landmarks, read_points, write_ply_atomic
@@ -162,7 +162,7 @@ def run(args) -> int:
         from ..apps.plot import plot_map
 
         plot_map(result.uv, outs["plot"], values=result.lambda_inv, domain=domain,
-                 title=f"{name}: {domain.spec}, {args.preset} (colour: lambda_inv)")
+                 title=f"{name}: {domain.label}, {args.preset} (colour: lambda_inv)")
     report = map_report(result.uv, domain, points, faces)
     outs["checkpoint"].unlink(missing_ok=True)
 
@@ -177,7 +177,8 @@ def run(args) -> int:
         "out_ply": os.fspath(outs["out_ply"]) if outs["out_ply"] else None,
         "plot": os.fspath(outs["plot"]) if outs["plot"] else None,
         "n_points": report["n_points"],
-        "domain": domain.spec,
+        # A polygon's spec holds all its coordinates: scripts get the file they named.
+        "domain": args.domain if isinstance(domain, PolygonDomain) else domain.spec,
         "preset": args.preset,
         "device": str(device),
         "seed": args.seed,
@@ -197,13 +198,13 @@ def run(args) -> int:
         return EXIT_OK
     written = [summary["out"]] + [summary[k] for k in ("out_ply", "plot") if summary[k]]
     print(f"{name}: {summary['n_points']} points -> {', '.join(written)}")
-    print(f"preset {args.preset}, domain {domain.spec}, device {summary['device']}, "
+    print(f"preset {args.preset}, domain {domain.label}, device {summary['device']}, "
           f"seed {args.seed}: {summary['seconds']:.1f} s")
     note = "" if summary["normals"] == "input" else f" ({NO_NORMALS_NOTE})"
     print(f"method {summary['method']}, normals {summary['normals']}{note}")
     if summary["loss"]:
         print("final loss: " + ", ".join(f"{k} {v:.4g}" for k, v in summary["loss"].items()))
-    print_domain_fit(summary, domain.spec)
+    print_domain_fit(summary, domain.label)
     if summary["landmark_hausdorff"] is not None:
         print("Hausdorff distance of each landmark set to its targets: "
               + ", ".join(f"{d:.4f}" for d in summary["landmark_hausdorff"]))

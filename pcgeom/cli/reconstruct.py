@@ -126,7 +126,7 @@ def _on_domain(args, points, result, domain, out) -> int:
     write_mesh(out, V, F)
     summary = _summary(args, points, result, out, report)
     return _print(args, points, report, summary,
-                  f"{report['n_domain_loops']} in the domain {domain.spec}")
+                  f"{report['n_domain_loops']} in the domain {domain.label}")
 
 
 def _print(args, points, report: dict, summary: dict, loops: str) -> int:

@@ -153,6 +153,21 @@ class Domain(abc.ABC):
         return json.dumps(self.to_dict())
 
 
+    @property
+    def label(self) -> str:
+        """A name for people: :attr:`spec` when it is short, else the domain's name and size
+        (a polygon's spec holds all its coordinates)."""
+        spec = self.spec
+        return spec if len(spec) <= LABEL_LIMIT else self._long_label()
+
+    def _long_label(self) -> str:
+        return self.name
+
+
+LABEL_LIMIT = 40
+"""The longest :attr:`Domain.spec` that :attr:`Domain.label` shows as it is."""
+
+
 def _plain(value):
     """Tuples and NumPy scalars as JSON-friendly lists and floats (for specs and comparisons)."""
     if isinstance(value, (tuple, list, np.ndarray)):

@@ -54,6 +54,12 @@ class PolygonDomain(ShapelyDomain):
     def _build_geometry(self):
         return shapely.Polygon(self.shell, self.holes)
 
+    def _long_label(self) -> str:
+        n = len(self.shell) + sum(len(h) for h in self.holes)
+        holes = len(self.holes)
+        return (f"polygon of {n} vertices" if not holes else
+                f"polygon of {n} vertices with {holes} hole{'s' if holes > 1 else ''}")
+
     @classmethod
     def from_json(cls, path) -> PolygonDomain:
         """Read a polygon with holes from a GeoJSON-style file.
