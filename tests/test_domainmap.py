@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -11,7 +12,7 @@ import shapely
 
 from pcgeom.cloud import normalize
 from pcgeom.domainmap import harmonic_onto
-from pcgeom.domains import ShapelyDomain, Smile, Square
+from pcgeom.domains import Annulus, ShapelyDomain, Smile, Square
 from pcgeom.errors import InputError
 from pcgeom.localmesh import local_mesh, lscm_free
 
@@ -107,3 +108,35 @@ def test_landmarks_turn_the_conformal_disk_map():
     # Turned and perhaps mirrored, never stretched: the map stays in the disk.
     assert np.linalg.norm(U, axis=1).max() < 1.0 + 1e-2
     assert info["domain_holes"] == 0 and info["paired"] == 0
+
+
+def test_holes_that_match_the_domain_give_no_warning_and_their_area_ratios():
+    smile = Smile()
+    _, X, normals = _sheet(smile, 3000, 0.3, False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, info = _map(smile, X, normals)
+    assert len(info["hole_area_ratios"]) == 3
+    assert all(0.8 < r < 1.2 for r in info["hole_area_ratios"]), info  # its own holes
+
+
+def test_a_domain_hole_without_a_hole_of_the_cloud_is_warned_of():
+    _, X, normals = _sheet(Square(), 2000, 0.0, False)
+    match = (r"^the domain smile has 3 hole\(s\) and the cloud none: 3 domain hole\(s\) get "
+             r"no hole of the cloud, and the map tears the surface open there")
+    with pytest.warns(UserWarning, match=match):
+        _, info = _map(Smile(), X, normals)
+    assert info["paired"] == 0 and info["hole_area_ratios"] == []
+
+
+def test_a_hole_much_smaller_than_its_domain_hole_is_warned_of():
+    _, X, normals = _sheet(Annulus(inner=0.1), 3000, 0.0, False)
+    with pytest.warns(UserWarning, match=r"^1 of the 1 holes of the domain annulus get a hole "
+                                         r"of the cloud of only \d\.\d% to \d\.\d% of their "
+                                         r"area: the map stretches the surface open"):
+        _, info = _map(Annulus(), X, normals)
+    # Its hole has 0.01 of the disk's area, the domain's 0.25 of it, after scaling the
+    # regions to the same area: (0.01 / 0.99) / (0.25 / 0.75) = 0.030; the loop through the
+    # points around the hole is inscribed in it, a little smaller (measured 0.0255).
+    (ratio,) = info["hole_area_ratios"]
+    assert 0.02 < ratio < 0.0303
