@@ -196,6 +196,8 @@ def test_output_would_overwrite_input(tmp_path, monkeypatch, capsys, no_training
          "argument --seed: expected a non-negative integer, got -1"),
         (["param", "--example", "peaks3", "--seed", "one"],
          "argument --seed: expected a non-negative integer, got 'one'"),
+        (["param", "--example", "peaks3", "--threads", "0"],
+         "argument --threads: expected a positive integer, got 0"),
         (["param", "--example", "peaks3", "--epochs=3"], "unrecognized arguments: --epochs=3"),
         ([], "the following arguments are required: COMMAND"),
         (["remesh"], "argument COMMAND: invalid choice: 'remesh'"),
@@ -653,3 +655,22 @@ def test_polygon_domain_is_named_by_its_file_and_its_size(tmp_path, capsys, tiny
     assert "domain polygon of 8 vertices with 1 hole, device" in text
     assert "to its domain (polygon of 8 vertices with 1 hole): " in text
     assert "[-1.0" not in text
+
+
+def test_threads_sets_torchs_threads_before_training(tmp_path, capsys, monkeypatch, tiny):
+    calls = []
+    monkeypatch.setattr(param_command.torch, "set_num_threads", calls.append)
+    original = param_command.parametrize
+    seen = []
+
+    def check(*args, **kwargs):
+        seen.append(list(calls))  # what was set when training began
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(param_command, "parametrize", check)
+    V, _ = _grid()
+    src = _write_txt(tmp_path / "scan.txt", V)
+    assert cli.main(["param", str(src), "--threads", "1", "--quiet", "--json"]) == 0
+    calls.clear()
+    assert cli.main(["param", str(src), "--quiet", "--json"]) == 0
+    assert seen == [[1], []]  # set before any work; torch's own default unless asked

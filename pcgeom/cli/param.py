@@ -13,6 +13,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from ..apps.evaluate import map_report
 from ..cloud import validate_points
@@ -22,8 +23,8 @@ from ..errors import InputError
 from ..examples import EXAMPLES, load_example
 from ..io import check_writable, read_landmarks, read_points, write_ply_atomic
 from ..train import LOSS_TERMS, parametrize, resolve_device
-from ._common import (EXIT_OK, distinct_paths, print_angles, print_domain_fit, run_command,
-                      seed, standalone_parser)
+from ._common import (EXIT_OK, distinct_paths, int_at_least, print_angles, print_domain_fit,
+                      run_command, seed, standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -85,6 +86,9 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--device", default="auto", metavar="DEV",
                    help="auto, cpu or cuda (default: auto, CUDA when available)")
     p.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
+    p.add_argument("--threads", type=int_at_least(1), metavar="T",
+                   help="torch threads on the CPU (default: torch's, one per core); on a "
+                        "machine busy with other work, 1 can be several times faster")
     p.add_argument("--out", metavar="OUT.npz",
                    help="output map (default: <input stem>_uv.npz next to the input; "
                         "<example>_uv.npz in the current directory for --example)")
@@ -150,6 +154,8 @@ def run(args) -> int:
                      for pair in read_landmarks(args.landmarks, points)]
     outs = _check_outputs(args, default_out)
 
+    if args.threads is not None:
+        torch.set_num_threads(args.threads)
     result = parametrize(points, domain, config=config, landmarks=landmarks, device=device,
                          seed=args.seed, checkpoint=outs["checkpoint"], resume=args.resume,
                          progress=not args.quiet, normals=normals)
