@@ -230,13 +230,13 @@ def _laid_out(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, domain: Domain, la
     return main, V, F, P, outer, holes, rings, align
 
 
-def _warn_unmatched_holes(P: np.ndarray, holes, rings, align: Alignment,
+def _warn_unmatched_holes(Z: np.ndarray, holes, rings, align: Alignment,
                           domain: Domain) -> list[float]:
     """Warn when a domain hole has no hole of the mesh, or one much smaller than itself
-    (:data:`MIN_HOLE_RATIO`); returns each paired hole's area over its domain hole's."""
+    (:data:`MIN_HOLE_RATIO`); returns each paired hole's area over its domain hole's. ``Z``
+    is the aligned free map."""
     import warnings
 
-    Z = align(P)
     ratios = [abs(_signed_area(Z[holes[k]])) / abs(_signed_area(rings[1 + j][:-1]))
               for k, j in enumerate(align.pairing)]
     missing = len(rings) - 1 - len(align.pairing)
@@ -314,8 +314,8 @@ def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: D
     import igl
 
     main, V, F, P, outer, holes, rings, align = _laid_out(X, mesh, free_uv, domain, landmarks)
-    ratios = _warn_unmatched_holes(P, holes, rings, align, domain)
     Z = align(P)
+    ratios = _warn_unmatched_holes(Z, holes, rings, align, domain)
     fixed, values = [], []
     pairs = [(outer, rings[0])] + [(holes[k], rings[1 + j]) for k, j in enumerate(align.pairing)]
     for loop, ring in pairs:

@@ -218,7 +218,8 @@ def surface_hausdorff(U, F, domain, n: int = 200_000, seed: int = 0) -> float:
     ``d_H(f(M), Omega) = max(sup_{y in f(M)} d(y, Omega), sup_{w in Omega} d(w, f(M)))``,
     with ``f(M)`` the union of the mapped reference triangles ``U[F]`` (the map extended
     linearly over each triangle). This is the quantity the paper's theorem on HAND bounds
-    (section 4: ``d_H(f(M), Omega) <= h_Y + h_W + H_alpha(Y, W) + O(exp(-alpha C))``).
+    (section 5.1:
+    ``d_H(f(M), Omega) <= h_Y + h_W + H_alpha(Y, W) + O(exp(-alpha C))``).
 
     :func:`domain_hausdorff` measures the mapped *points* instead, ``d_H(f(X), Omega)``, and
     so carries the term ``h_Y = d_H(f(M), f(X))``: the gaps between the cloud's own samples,

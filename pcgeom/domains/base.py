@@ -152,7 +152,6 @@ class Domain(abc.ABC):
             return f"{self.name}:{','.join(values)}"
         return json.dumps(self.to_dict())
 
-
     @property
     def label(self) -> str:
         """A name for people: :attr:`spec` when it is short, else the domain's name and size
