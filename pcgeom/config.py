@@ -244,12 +244,14 @@ class LocalMeshConfig:
     0.051 rad, so it is off by default."""
     disk_refine: bool = False
     """Refine the conformal disk map too (``ParamConfig.disk_map = "localmesh"``, no
-    landmarks), with :attr:`domain_refine`: HAND fills the disk more evenly at a cost in
-    angles. Measured (angle, flips, Hausdorff to the disk; 2 CPU cores, bench_domains): three
-    peaks 0.0167 rad, 0, 0.0248 -> 0.0258, 0, 0.0246 (40 s); face_human_choi with its normals
-    0.0258, 28, 0.063 -> 0.065, 485, 0.0395 (115 s); bare 0.0397, 1192, 0.062 -> 0.063, 1181,
-    0.039. Off: angles and folds first (an area-preserving map of the face would still leave
-    0.030, its own sampling gaps)."""
+    landmarks), with :attr:`domain_refine`: HAND spreads the points more evenly over the
+    disk at a cost in angles, and pulls the rim off the circle. Measured (angle, flips,
+    Hausdorff to the disk of the mapped points, and of the mapped true triangles; 2 CPU cores,
+    bench_domains): three peaks 0.0167 rad, 0, 0.0248, 0.0001 -> 0.0258, 0, 0.0246, 0.0205
+    (38 s); face_human_choi with its normals 0.0257, 28, 0.063, 0.010 -> 0.068, 494, 0.039,
+    0.027 (95 s); bare 0.0397, 1192, 0.062, 0.013 -> 0.062, 1174, 0.039, 0.029. Off: angles,
+    folds and a surface that fills the disk first (an area-preserving map of the face would
+    still leave its points 0.030 apart from the disk, its own sampling gaps)."""
     domain_refine: RefineConfig = RefineConfig(steps=1000, batch_domain=8192, hand_backend="knn",
                                                local_steps=True)
     """The refinement after the first map onto a domain (``ParamConfig.domain_map =
