@@ -158,7 +158,8 @@ def parametrize_by_stage(points, domain, config, *, faces=None, normals=None, la
 
     Each stage's row holds its history record's name, kind and loss terms, the cumulative
     seconds, the Hausdorff distance of the map to the domain
-    (:func:`pcgeom.metrics.domain_hausdorff` on ``n_measure`` samples), the angle distortion
+    (:func:`pcgeom.metrics.domain_hausdorff` on ``n_measure`` samples; with ``faces`` also
+    ``surface_hausdorff``, of the mapped triangles), the angle distortion
     and flips on the reference ``faces`` (when given) and, with landmarks, the landmark
     Hausdorff distance the history records; ``extra(U)`` may add more (a dict).
 
@@ -169,7 +170,7 @@ def parametrize_by_stage(points, domain, config, *, faces=None, normals=None, la
     maps : list of (N, 2) arrays, one per stage
     """
     import pcgeom
-    from pcgeom.metrics import angle_distortion, domain_hausdorff
+    from pcgeom.metrics import angle_distortion, domain_hausdorff, surface_hausdorff
     from pcgeom.train import LOSS_TERMS
 
     clock = Clock()
@@ -180,6 +181,8 @@ def parametrize_by_stage(points, domain, config, *, faces=None, normals=None, la
         row.update({k: float(record[k]) for k in LOSS_TERMS if k in record})
         if domain.bounded:
             row["hausdorff"] = domain_hausdorff(U, domain, n=n_measure)
+            if faces is not None:
+                row["surface_hausdorff"] = surface_hausdorff(U, faces, domain, n=n_measure)
         if faces is not None:
             angles = angle_distortion(points, faces, U)
             row.update(mean_abs_angle_rad=angles.mean_abs, flipped=angles.flipped,
@@ -191,8 +194,8 @@ def parametrize_by_stage(points, domain, config, *, faces=None, normals=None, la
             row.update(extra(U))
         rows.append(row)
         maps.append(np.asarray(U).copy())
-        shown = {k: round(row[k], 4) for k in ("hausdorff", "mean_abs_angle_rad")
-                 if k in row}
+        shown = {k: round(row[k], 4) for k in ("hausdorff", "surface_hausdorff",
+                                                "mean_abs_angle_rad") if k in row}
         log(script, f"stage {row['stage']} ({row['kind']}) at {row['seconds']:.0f} s: {shown}")
 
     result = pcgeom.parametrize(points, domain, config=config, landmarks=landmarks,

@@ -84,6 +84,9 @@ def test_face_disk_records_every_stage(tmp_path):
     assert stages[-1]["mean_abs_angle_rad"] < 0.95 * stages[0]["mean_abs_angle_rad"]
     fast, harmonic = result["fast"], result["harmonic_true_mesh"]
     assert 0 < fast["hausdorff"] < 0.15 and 0 < fast["mean_abs_angle_rad"] < 0.3
+    # The conformal disk map's surface reaches the circle; its points keep their gaps.
+    assert fast["surface_hausdorff"] < 0.5 * fast["hausdorff"]
+    assert all(0 <= s["surface_hausdorff"] < 1 for s in stages)
     assert harmonic["flipped"] <= 1  # the harmonic map of a disk mesh folds nothing (1 sliver)
 
 
