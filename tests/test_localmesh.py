@@ -261,7 +261,7 @@ def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
     """The disk map's planar triangulation: Delaunay triangles inside the loop, CCW."""
     import shapely
 
-    from pcgeom.localmesh import _planar_mesh
+    from pcgeom.localmesh import _boundary_loops, _planar_mesh
 
     P = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.45], [3.0, 0.5]], dtype=float)
     T = _planar_mesh(P, np.array([0, 1, 2, 3]))
@@ -278,6 +278,15 @@ def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
     assert len(T) and 6 not in T
     polygon = shapely.Polygon(P[loop]).buffer(1e-9)
     assert shapely.contains(polygon, shapely.polygons(P[T])).all()
+    # A rim point a little inside the loop (the local mesh covered it): the flat triangle
+    # over it (162 degrees at it) is peeled, so it is on the rim the disk map puts on the
+    # circle; the square's own rim triangles (90 degrees or less) are kept.
+    P = np.array([[0, 0], [0.5, 0], [1.5, 0], [2, 0], [2, 2], [0, 2], [1, 0.08], [1, 1]],
+                 dtype=float)
+    T = _planar_mesh(P, np.array([0, 1, 2, 3, 4, 5]))
+    (rim,) = _boundary_loops(T)
+    assert set(rim) == {0, 1, 2, 3, 4, 5, 6}
+    assert 7 in T and len(T) == 7  # 8 Delaunay triangles less the flat one
     # A loop enclosing no area gives no triangle (conformal_disk then says "degenerate").
     line = np.array([[0, 0], [1, 0], [2, 0.0]])
     assert _planar_mesh(line, np.array([0, 1, 2])).shape == (0, 3)
