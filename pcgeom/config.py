@@ -248,8 +248,8 @@ class LocalMeshConfig:
     disk at a cost in angles, and pulls the rim off the circle. Measured (angle, flips,
     Hausdorff to the disk of the mapped points, and of the mapped true triangles; 2 CPU cores,
     bench_domains): three peaks 0.0167 rad, 0, 0.0248, 0.0001 -> 0.0258, 0, 0.0246, 0.0205
-    (38 s); face_human_choi with its normals 0.0257, 28, 0.063, 0.010 -> 0.068, 494, 0.039,
-    0.027 (95 s); bare 0.0397, 1192, 0.062, 0.013 -> 0.062, 1174, 0.039, 0.029. Off: angles,
+    (42 s); face_human_choi with its normals 0.0253, 28, 0.066, 0.0007 -> 0.068, 492, 0.043,
+    0.027 (92 s); bare 0.0392, 1192, 0.063, 0.0007 -> 0.063, 1172, 0.040, 0.029. Off: angles,
     folds and a surface that fills the disk first (an area-preserving map of the face would
     still leave its points 0.030 apart from the disk, its own sampling gaps)."""
     domain_refine: RefineConfig = RefineConfig(steps=1000, batch_domain=8192, hand_backend="knn",
