@@ -250,13 +250,20 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     faces, n_candidates = _merge(X, normals, candidates)
     del candidates
     main = _main_part(faces, n)
-    boundary = 0
-    if len(faces):
-        ring = np.roll(faces, 1, axis=1)
-        edges = np.sort(np.stack([faces.ravel(), ring.ravel()], axis=1), axis=1)
-        _, count = np.unique(edges, axis=0, return_counts=True)
-        boundary = int((count == 1).sum())
+    boundary = int(_edge_sides(faces)[1].sum())
     return LocalMesh(faces=faces, main=main, boundary_edges=boundary, candidates=n_candidates)
+
+
+def _edge_sides(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each triangle's three edges, ``(3M, 2)`` in the order 01, 12, 20 of every triangle
+    (edge ``k`` belongs to triangle ``k % M``), and whether each is on one triangle only
+    (a boundary edge), ``(3M,)``."""
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    if not len(edges):
+        return edges, np.zeros(0, dtype=bool)
+    _, inverse, counts = np.unique(np.sort(edges, axis=1), axis=0, return_inverse=True,
+                                   return_counts=True)
+    return edges, counts[inverse.ravel()] == 1
 
 
 def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
@@ -492,12 +499,8 @@ def _peel_rim(P: np.ndarray, T: np.ndarray, rounds: int = 20) -> np.ndarray:
     """
     limit = np.cos(RIM_ANGLE)
     for _ in range(rounds):
-        edges = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])  # (3M, 2)
+        edges, boundary = _edge_sides(T)  # (3M, 2), (3M,)
         opposite = np.concatenate([T[:, 2], T[:, 0], T[:, 1]])  # (3M,)
-        key = np.minimum(edges[:, 0], edges[:, 1]) * len(P) + np.maximum(edges[:, 0],
-                                                                           edges[:, 1])
-        _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-        boundary = counts[inverse] == 1  # (3M,)
         on_rim = np.zeros(len(P), dtype=bool)
         on_rim[edges[boundary].ravel()] = True
         u, v = P[edges[:, 0]] - P[opposite], P[edges[:, 1]] - P[opposite]

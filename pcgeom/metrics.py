@@ -171,6 +171,16 @@ def hausdorff(A, B) -> float:
     return float(max(d_ab.max(), d_ba.max()))
 
 
+def _check_bounded(domain) -> None:
+    """TypeError unless ``domain`` is a Domain, ValueError unless it has a region."""
+    from pcgeom.domains import Domain
+
+    if not isinstance(domain, Domain):
+        raise TypeError(f"domain: expected a pcgeom.domains.Domain, got {type(domain).__name__}")
+    if not domain.bounded:
+        raise ValueError(f"domain: {domain.name!r} has no region to measure a distance to")
+
+
 def domain_hausdorff(U, domain, n: int = 200_000) -> float:
     """Hausdorff distance between a mapped cloud and the region of its domain.
 
@@ -198,12 +208,7 @@ def domain_hausdorff(U, domain, n: int = 200_000) -> float:
     """
     from scipy.spatial import cKDTree
 
-    from pcgeom.domains import Domain
-
-    if not isinstance(domain, Domain):
-        raise TypeError(f"domain: expected a pcgeom.domains.Domain, got {type(domain).__name__}")
-    if not domain.bounded:
-        raise ValueError(f"domain: {domain.name!r} has no region to measure a distance to")
+    _check_bounded(domain)
     U = _as_points(U, "U", 2)
     if len(U) == 0:
         raise ValueError("U: expected at least one point, got shape (0, 2)")
@@ -262,22 +267,17 @@ def surface_hausdorff(U, F, domain, n: int = 200_000, seed: int = 0) -> float:
     """
     import shapely
 
-    from pcgeom.domains import Domain
-
-    if not isinstance(domain, Domain):
-        raise TypeError(f"domain: expected a pcgeom.domains.Domain, got {type(domain).__name__}")
-    if not domain.bounded:
-        raise ValueError(f"domain: {domain.name!r} has no region to measure a distance to")
+    _check_bounded(domain)
     U = _as_points(U, "U", 2)
     F = validate_faces(F, len(U), name="F", allow_empty=False)
     corners = U[F]  # (M, 3, 2)
     tree = shapely.STRtree(shapely.polygons(corners))
-    W = domain.sample(n)  # (n, 2)
+    W = shapely.points(domain.sample(n))  # (n,) point geometries
     covered = np.zeros(len(W), dtype=bool)
-    covered[tree.query(shapely.points(W), predicate="intersects")[0]] = True
+    covered[tree.query(W, predicate="intersects")[0]] = True
     gap = 0.0
     if not covered.all():
-        _, distances = tree.query_nearest(shapely.points(W[~covered]), return_distance=True)
+        _, distances = tree.query_nearest(W[~covered], return_distance=True)
         gap = float(distances.max())
     # Area-uniform points of the mapped triangles: folded ones count by their unsigned area.
     e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]

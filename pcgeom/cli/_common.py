@@ -117,15 +117,15 @@ def print_angles(report: dict) -> None:
           f"({report['flipped_percent']:.2f}%)")
 
 
-def print_domain_fit(report: dict, spec: str | None) -> None:
-    """The human lines for a map's fit to its bounded domain (``map_report`` keys): the
-    mapped points' Hausdorff distance, and the mapped reference triangles' when the input
-    had them."""
+def print_domain_fit(report: dict, label: str | None) -> None:
+    """The human line for a map's fit to its bounded domain, named ``label`` (``map_report``
+    keys): the mapped points' Hausdorff distance, and the mapped reference triangles' when the
+    input had them."""
     if report["domain_hausdorff"] is None:
         return
-    print(f"Hausdorff distance of the map to its domain ({spec}): "
+    print(f"Hausdorff distance of the map to its domain ({label}): "
           f"{report['domain_hausdorff']:.4f} (points)"
-          + ("" if report.get("surface_hausdorff") is None
+          + ("" if report["surface_hausdorff"] is None
              else f", {report['surface_hausdorff']:.4f} (reference triangles)"))
 
 

@@ -34,7 +34,8 @@ examples:
 
 MAP.npz is a file written by 'pcgeom param' (pcgeom.ParamResult), one row per vertex of MESH.
 The Hausdorff distance of the map to its domain is reported for a bounded domain (of the mapped
-points, and of the mesh's mapped triangles), and that of each landmark set to its targets for a map trained with landmarks (its last stage's record).
+points, and of the mesh's mapped triangles), and that of each landmark set to its targets for
+a map trained with landmarks (its last stage's record).
 The baselines need a mesh with a boundary; on a closed mesh they are reported as not run.
 """
 
