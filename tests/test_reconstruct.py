@@ -217,7 +217,7 @@ def test_loops_that_touch_at_a_point_are_meshed_with_one_copy_per_visit():
 
 
 def test_crossing_loops_of_a_folded_map_are_repaired_into_simple_polygons():
-    from pcgeom.apps.reconstruct import _polygons, _valid
+    from pcgeom.apps.reconstruct.polygons import _polygons, _valid
 
     U = _grid(12)
     P = np.column_stack([U, np.zeros(len(U))])

@@ -259,6 +259,17 @@ def _check_non_negative(value, name: str) -> float:
     return _check_number(value, name, allow_zero=True)
 
 
+def _distinct_points(U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct points of a map (K, 2), in order of first use, and the first input row of
+    each (K,) int64; InputError when fewer than 3."""
+    unique, inverse = deduplicate(U)  # unique[inverse] == U
+    if len(unique) < 3:
+        raise InputError(f"U: {len(unique)} distinct points (of {len(U)}), need at least 3")
+    row = np.empty(len(unique), dtype=np.int64)
+    row[inverse[::-1]] = np.arange(len(U))[::-1]
+    return unique, row
+
+
 def _delaunay(U: np.ndarray) -> np.ndarray:
     """Delaunay triangles of distinct points ``U``, each counter-clockwise. (M, 3) int64."""
     from scipy.spatial import Delaunay, QhullError
@@ -506,11 +517,7 @@ def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
         min_width = _check_non_negative(min_width, "min_width")
     elif cloud_spacing:
         raise InputError("cloud_spacing: needs the cloud (points)")
-    unique, inverse = deduplicate(U)  # unique[inverse] == U
-    if len(unique) < 3:
-        raise InputError(f"U: {len(unique)} distinct points (of {len(U)}), need at least 3")
-    row = np.empty(len(unique), dtype=np.int64)  # first input row of each distinct point
-    row[inverse[::-1]] = np.arange(len(U))[::-1]
+    unique, row = _distinct_points(U)
 
     T = _delaunay(unique)
     keep = _kept(unique, T, h, c)

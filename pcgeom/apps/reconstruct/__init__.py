@@ -1,0 +1,34 @@
+"""Surface reconstruction from a map (the paper's section 8, remeshing): a free-boundary
+map, meshed inside its detected loops (:func:`reconstruct_surface`), or a map onto a bounded
+domain, meshed on the domain itself (:func:`reconstruct_on_domain`).
+
+1. Mesh the region of the map inside the detected loops (the outer loop minus the holes)
+   with gmsh, every loop point a mesh vertex, so the mesh's boundary is the detected one
+   (:mod:`.polygons`: the region as simple polygons, where loops touch or cross).
+2. Size: uniform, or adaptive to ``lambda_inv``, corrected to a target vertex count
+   (:mod:`.gmsh_mesh`).
+3. Lift each new 2D vertex to 3D by barycentric interpolation over the triangles that
+   boundary detection kept (:mod:`.lifting`, with the rule for vertices outside them).
+4. Measure the mesh (:mod:`.report`) and write it as PLY or OBJ (:mod:`.export`);
+   :mod:`.surface` chains the steps.
+
+Measured on face_3holes_small_choi (5053 points), its ``fast`` map, 5000 target vertices:
+5060 vertices (uniform; 5128 adaptive), 4 boundary loops, edge-manifold, oriented; distance
+of the vertices to the true mesh at most 0.46% of the bounding-box diagonal; minimum angle
+22 degrees (24 adaptive); about a second.
+
+Orientation: every triangle is counter-clockwise in the map, so the 3D mesh is consistently
+oriented wherever the map is one-to-one (its normal is the one the map's orientation gives).
+"""
+
+from __future__ import annotations
+
+from .export import MESH_FORMATS, check_mesh_path, write_mesh
+from .gmsh_mesh import mesh_domain, mesh_region, require_gmsh
+from .lifting import lift, map_delaunay
+from .report import mesh_report
+from .surface import SIZES, reconstruct_on_domain, reconstruct_surface
+
+__all__ = ["reconstruct_surface", "reconstruct_on_domain", "lift", "mesh_region",
+           "mesh_domain", "map_delaunay", "mesh_report", "SIZES",
+           "require_gmsh", "MESH_FORMATS", "check_mesh_path", "write_mesh"]

@@ -1,0 +1,106 @@
+"""Lifting a mesh made in the map to 3D: each 2D vertex by barycentric interpolation over
+triangles of the map (:func:`lift`), the triangles that boundary detection kept (the Delaunay
+triangulation of f(X) without the triangles that span gaps) or the map's whole Delaunay
+triangulation (:func:`map_delaunay`).
+
+Vertices outside every kept triangle
+------------------------------------
+The meshed region is the polygon of the kept loops; the kept triangles cover it except in the
+gaps whose loops were dropped as too small (``BoundaryLoops.dropped``) and, up to rounding,
+on the boundary edges themselves. A vertex found in no kept triangle takes the point of the
+kept triangles' boundary edges nearest to it in the map and is lifted linearly along that
+edge (barycentric interpolation on its triangle, with the opposite vertex's weight 0). It is
+a projection onto the nearest covered point, so a gap is bridged by the surface around it,
+never extrapolated.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import InputError
+from ..boundary import _delaunay, _distinct_points, _validate_map
+
+
+def lift(points, U, triangles, Q) -> tuple[np.ndarray, np.ndarray]:
+    """Lift map points ``Q`` to 3D by barycentric interpolation over ``triangles``.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like
+        The cloud.
+    U : (N, 2) array_like
+        Its map.
+    triangles : (M, 3) array_like of int
+        Triangles of the map (rows of ``U``) that do not overlap, e.g.
+        ``BoundaryLoops.triangles``.
+    Q : (K, 2) array_like
+        Points to lift.
+
+    Returns
+    -------
+    V : (K, 3) float64
+        The lifted points.
+    outside : (K,) bool
+        Points in no triangle, lifted from the nearest point of the triangles' boundary
+        edges (module docstring).
+    """
+    import matplotlib.tri as mtri
+    from scipy.spatial import cKDTree
+
+    P = np.asarray(points, dtype=np.float64)
+    U = np.asarray(U, dtype=np.float64)
+    T = np.asarray(triangles, dtype=np.int64)
+    Q = np.asarray(Q, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3 or U.shape != (len(P), 2):
+        raise InputError(f"points, U: expected shapes (N, 3) and (N, 2), got {P.shape} and "
+                         f"{U.shape}")
+    if Q.ndim != 2 or Q.shape[1] != 2:
+        raise InputError(f"Q: expected shape (K, 2), got {Q.shape}")
+    if len(T) == 0:
+        raise InputError("triangles: none; the reconstruction would be empty")
+    used, local = np.unique(T, return_inverse=True)
+    local = local.reshape(-1, 3)
+    tri = mtri.Triangulation(U[used, 0], U[used, 1], local)
+    found = np.asarray(tri.get_trifinder()(Q[:, 0], Q[:, 1]), dtype=np.int64)  # -1: outside
+    V = np.empty((len(Q), 3))
+    inside = found >= 0
+    t = T[found[inside]]  # (k, 3)
+    ab, ac, aq = (U[t[:, 1]] - U[t[:, 0]], U[t[:, 2]] - U[t[:, 0]],
+                  Q[inside] - U[t[:, 0]])  # (k, 2) each
+    det = ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0]  # twice the signed area
+    wb = (aq[:, 0] * ac[:, 1] - aq[:, 1] * ac[:, 0]) / det
+    wc = (ab[:, 0] * aq[:, 1] - ab[:, 1] * aq[:, 0]) / det
+    wa = 1.0 - wb - wc
+    V[inside] = wa[:, None] * P[t[:, 0]] + wb[:, None] * P[t[:, 1]] + wc[:, None] * P[t[:, 2]]
+
+    outside = ~inside
+    if outside.any():
+        # Boundary edges of the triangles: directed edges whose reverse is not an edge.
+        half = np.stack([T, np.roll(T, -1, axis=1)], axis=2).reshape(-1, 2)
+        K = int(T.max()) + 1
+        key = half[:, 0] * K + half[:, 1]
+        E = half[~np.isin(half[:, 1] * K + half[:, 0], key)]  # (E, 2)
+        A, B = U[E[:, 0]], U[E[:, 1]]
+        # Candidates: the edges with the nearest midpoints; an edge is never longer than
+        # the span of the candidates' midpoints in practice, and 32 leaves a wide margin.
+        k = min(32, len(E))
+        _, cand = cKDTree(0.5 * (A + B)).query(Q[outside], k=k)
+        cand = np.asarray(cand).reshape(-1, k)  # (o, k)
+        q = Q[outside][:, None, :]  # (o, 1, 2)
+        d = B[cand] - A[cand]  # (o, k, 2)
+        s = np.clip(np.sum((q - A[cand]) * d, axis=2)
+                    / np.maximum(np.sum(d * d, axis=2), np.finfo(float).tiny), 0.0, 1.0)
+        dist = np.linalg.norm(A[cand] + s[..., None] * d - q, axis=2)  # (o, k)
+        best = np.argmin(dist, axis=1)
+        e = cand[np.arange(len(cand)), best]
+        s = s[np.arange(len(cand)), best][:, None]
+        V[outside] = (1.0 - s) * P[E[e, 0]] + s * P[E[e, 1]]
+    return V, outside
+
+
+def map_delaunay(U) -> np.ndarray:
+    """The Delaunay triangles of a map ``U`` (N, 2), as its rows (a duplicated map point by
+    its first row), counter-clockwise. (M, 3) int64"""
+    unique, row = _distinct_points(_validate_map(U))
+    return row[_delaunay(unique)]
