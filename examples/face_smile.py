@@ -16,7 +16,7 @@ it encloses it.
 Runs:
 
 1. ``fast`` (the local mesh laid on the domain with its holes on the domain's holes, by
-   :func:`pcgeom.domainmap.harmonic_onto`, then the refinement), measured after each step:
+   :func:`pcgeom.maps.domain.harmonic_onto`, then the refinement), measured after each step:
    Hausdorff distance to the domain, angle distortion on the reference triangles, where the
    holes land.
 2. With landmarks, as the paper matches landmarks (``--landmarks auto``: only when run 1 does

@@ -14,7 +14,7 @@ from .config import get_preset
 from .domains import get_domain
 from .errors import InputError
 from .io import ParamResult, read_points
-from .train import parametrize
+from .maps import parametrize
 
 __all__ = [
     "__version__",

@@ -201,7 +201,7 @@ class RefineConfig:
     hand_backend: str = "auto"
     """HAND of all points against the domain batch (:data:`pcgeom.losses.HAND_BACKENDS`):
     ``"auto"`` is ``"dense"`` while N x batch_domain is small
-    (:data:`pcgeom.train.refine.DENSE_HAND_MAX`) and the O(N) ``"knn"`` above; or a backend
+    (:data:`pcgeom.maps.refine.DENSE_HAND_MAX`) and the O(N) ``"knn"`` above; or a backend
     by name."""
     hand_neighbours: int = 8
     """k of the ``"knn"`` HAND: candidates per soft-min."""
@@ -226,7 +226,7 @@ class RefineConfig:
 
 @dataclass(frozen=True)
 class LocalMeshConfig:
-    """The local-mesh map of the free boundary (not in the paper; :mod:`pcgeom.localmesh`).
+    """The local-mesh map of the free boundary (not in the paper; :mod:`pcgeom.maps.localmesh`).
 
     Same-sheet tangent fans of each point's neighbours, merged into a manifold mesh, then
     LSCM. Used when :attr:`ParamConfig.free_map` is ``"localmesh"`` and the domain is free.
@@ -311,11 +311,11 @@ class ParamConfig:
     disk_map: str = "networks"
     """How a map onto a disk without landmarks is made: ``"networks"`` (paper) or
     ``"localmesh"``, the local-mesh map made conformal onto the disk
-    (:func:`pcgeom.localmesh.conformal_disk`)."""
+    (:func:`pcgeom.maps.disk.conformal_disk`)."""
     domain_map: str = "networks"
     """How a map onto any other bounded domain, or with landmarks, is made: ``"networks"``
     (paper) or ``"localmesh"``, the local mesh laid on the domain with its holes on the
-    domain's holes (:func:`pcgeom.domainmap.harmonic_onto`), then refined
+    domain's holes (:func:`pcgeom.maps.domain.harmonic_onto`), then refined
     (:attr:`LocalMeshConfig.domain_refine`)."""
     local_mesh: LocalMeshConfig = LocalMeshConfig()
     """Settings of the ``"localmesh"`` maps."""

@@ -281,7 +281,7 @@ class FaultyWorkers(WorkerPlugin):
 
     def setup(self, worker):
         import pcgeom.apps.batch as batch
-        import pcgeom.train.run as run
+        import pcgeom.maps.run as run
         from pcgeom.io import ParamResult as Result
 
         marker, attempts, log = self.marker, self.attempts, self.log

@@ -35,12 +35,13 @@ from pcgeom.domains import Disk, FreeBoundary, get_domain
 from pcgeom.errors import InputError
 from pcgeom.examples import peaks_surface
 from pcgeom.metrics import angle_distortion, domain_hausdorff, hausdorff
-from pcgeom.train import LOSS_TERMS, Stage, parametrize, resolve_device, stage_plan
+from pcgeom.maps import parametrize
+from pcgeom.train import LOSS_TERMS, Stage, resolve_device, stage_plan
 from pcgeom.train.data import TrainData
-from pcgeom.train.networks import build_networks, initial_plane
+from pcgeom.maps.networks import build_networks, initial_plane
 
 # The module, not the function of the same name that pcgeom.train exports.
-parametrize_module = importlib.import_module("pcgeom.train.run")
+parametrize_module = importlib.import_module("pcgeom.maps.run")
 
 # --------------------------------------------------------------------------- Algorithm 1
 
@@ -631,7 +632,7 @@ def test_disk_not_centred_at_the_origin(peaks):
     V, _ = peaks
     centre = np.array([3.0, -2.0])
     domain = Disk(center=(3.0, -2.0))
-    fast = get_preset("networks")  # fast maps a disk by the local mesh (tests/test_localmesh)
+    fast = get_preset("networks")  # fast maps a disk by the local mesh (tests/test_maps_localmesh)
     # The fast preset with 40 epochs of batches of 128 and 100 refinement steps: 5 s.
     cfg = dataclasses.replace(
         fast,
@@ -870,7 +871,7 @@ def test_network_stages_without_normals_use_all_pairs(monkeypatch):
 
 
 def test_refine_hand_backend_auto_is_dense_for_small_runs_and_knn_above():
-    refine_module = importlib.import_module("pcgeom.train.refine")
+    refine_module = importlib.import_module("pcgeom.maps.refine")
     auto = RefineConfig()
     assert auto.hand_backend == "auto" and get_preset("paper").refine.hand_backend == "auto"
     limit = refine_module.DENSE_HAND_MAX

@@ -59,6 +59,7 @@ from ..config import ParamConfig, get_preset
 from ..domains import Domain, get_domain
 from ..errors import InputError
 from ..io import SUPPORTED_EXTENSIONS, ParamResult, read_points, write_atomic, write_ply_atomic
+from ..progress import Progress
 
 __all__ = ["SUMMARY_COLUMNS", "SUMMARY_NAME", "BatchReport", "collect_inputs", "scan_paths",
            "map_scan", "write_summary", "run_batch"]
@@ -236,7 +237,7 @@ def _train(job: dict, cloud, config, domain, paths) -> tuple[ParamResult, bool]:
     """Train the scan's map, resuming from its checkpoint; returns (result, resumed).
 
     The file's normals, when it has them, are used as ``pcgeom param`` uses them."""
-    from ..train import parametrize
+    from ..maps import parametrize
 
     ckpt = paths["checkpoint"]
     ckpt.parent.mkdir(exist_ok=True)
@@ -513,19 +514,17 @@ def _run_jobs(rows: list[dict | None], jobs: list[dict], summary: Path, *, sched
               workers: int, retries: int, progress: bool) -> str:
     """Submit ``jobs``, fill their rows as they finish; returns the dashboard URL."""
     from distributed import as_completed
-    from tqdm.auto import tqdm
 
     # Rows still None are the jobs', in the same order.
     index = dict(zip((job["name"] for job in jobs), (i for i, r in enumerate(rows) if r is None)))
     client, cluster, allowed = _connect(scheduler, workers, retries)
     dashboard = client.dashboard_link
-    bar = None
+    bar = Progress(len(rows), "batch: scans", enabled=progress, unit="scan",
+                   initial=len(rows) - len(jobs), milestones=True)
     futures = []
     try:
         if progress:
             print(f"pcgeom batch: Dask dashboard at {dashboard}", file=sys.stderr, flush=True)
-            bar = tqdm(total=len(rows), initial=len(rows) - len(jobs), unit="scan",
-                       desc="scans", file=sys.stderr)
         # pure=False: a resubmitted scan is new work even with the same arguments.
         futures = [client.submit(map_scan, job, retries=retries, pure=False) for job in jobs]
         job_of = {future.key: job for future, job in zip(futures, jobs)}
@@ -539,13 +538,11 @@ def _run_jobs(rows: list[dict | None], jobs: list[dict], summary: Path, *, sched
                 row = _failure_row(job, future.exception(), allowed)
             rows[index[job["name"]]] = row
             write_summary(summary, [r for r in rows if r is not None])
-            if bar is not None:
-                bar.update(1)
-                if row["status"] == "error":
-                    bar.write(f"pcgeom batch: {row['name']}: {row['error']}", file=sys.stderr)
+            bar.update(1)
+            if row["status"] == "error":
+                bar.write(f"pcgeom batch: {row['name']}: {row['error']}")
     finally:
-        if bar is not None:
-            bar.close()
+        bar.close()
         for future in futures:
             if not future.done():  # interrupted: nothing may keep running for this batch
                 future.cancel()

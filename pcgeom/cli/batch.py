@@ -76,7 +76,8 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--retries", type=int_at_least(0), default=2, metavar="R",
                    help="retries of a scan after an error that is not bad input, or after "
                         "its worker died (default: 2)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress (a bar on a terminal, a few lines in a log)")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object on stdout instead of a summary")
     p.set_defaults(run=run)

@@ -13,7 +13,7 @@ from ..apps.boundary import DEFAULT_MIN_LOOP, DEFAULT_MIN_WIDTH, detect_boundary
 from ..config import get_preset
 from ..io import check_writable, read_points
 from ..io.atomic import write_atomic
-from ..train import parametrize
+from ..maps import parametrize
 from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, load_free_map, run_command,
                       standalone_parser)
 
@@ -93,7 +93,8 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, metavar="LOOPS.json", help="the loops, as JSON")
     p.add_argument("--plot", metavar="LOOPS.png",
                    help="also draw the map with the loops and the removed triangles")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress (bars on a terminal, a few lines in a log)")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object on stdout instead of a summary")
     p.set_defaults(run=run)

@@ -22,7 +22,8 @@ from ..domains import DOMAINS, PolygonDomain, get_domain
 from ..errors import InputError
 from ..examples import EXAMPLES, load_example
 from ..io import check_writable, read_landmarks, read_points, write_ply_atomic
-from ..train import LOSS_TERMS, parametrize, resolve_device
+from ..maps import parametrize
+from ..train import LOSS_TERMS, resolve_device
 from ._common import (EXIT_OK, distinct_paths, int_at_least, print_angles, print_domain_fit,
                       run_command, seed, standalone_parser)
 
@@ -98,7 +99,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="also draw the map coloured by lambda_inv")
     p.add_argument("--resume", action="store_true",
                    help="continue from the checkpoint <out stem>.ckpt if it exists")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress (bars on a terminal, a few lines in a log)")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object on stdout instead of a summary")
     p.set_defaults(run=run)

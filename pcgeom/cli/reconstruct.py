@@ -13,7 +13,7 @@ from ..config import get_preset
 from ..domains import get_domain
 from ..errors import InputError
 from ..io import read_points
-from ..train import parametrize
+from ..maps import parametrize
 from .boundary import add_hole_options
 from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, int_at_least, load_free_map,
                       run_command, standalone_parser)
@@ -65,7 +65,8 @@ def configure(p) -> None:
                    help="about how many vertices the mesh gets (default: 5000)")
     p.add_argument("--out", required=True, metavar="MESH.ply|MESH.obj",
                    help="the mesh, as PLY or OBJ (by extension)")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress (bars on a terminal, a few lines in a log)")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object on stdout instead of a summary")
     p.set_defaults(run=run)

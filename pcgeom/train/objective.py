@@ -21,6 +21,7 @@ import torch
 from ..config import LossWeights
 from ..losses import hand, landmark_hand, leg
 from ..metrics import hausdorff
+from ..progress import Progress
 
 __all__ = ["LOSS_TERMS", "Batch", "Objective", "step", "StageLog", "landmark_fit"]
 
@@ -112,22 +113,18 @@ class StageLog:
     def __init__(self, total: int, desc: str, progress: bool) -> None:
         self.t0 = time.perf_counter()
         self.last: dict[str, float] = {}
-        self.bar = None
-        if progress:
-            from tqdm.auto import tqdm
-
-            self.bar = tqdm(total=total, desc=desc, leave=False, dynamic_ncols=True)
+        self.bar = Progress(total, desc, enabled=progress, unit="step")
 
     def read(self, terms: dict[str, torch.Tensor], **shown: float) -> None:
-        """Record the current terms as floats and show them (with ``shown``) on the bar."""
+        """Record the current terms as floats and show them (with ``shown``) on the bar (on a
+        log: on the stage's one line)."""
         self.last = {k: float(v.detach()) for k, v in terms.items()}
-        if self.bar is not None:
+        if self.bar.enabled:
             values = self.last | shown
             self.bar.set_postfix({k: f"{v:.3g}" for k, v in values.items()})
 
     def advance(self, n: int = 1) -> None:
-        if self.bar is not None:
-            self.bar.update(n)
+        self.bar.update(n)
 
     def record(self, **schedule) -> dict:
         """The stage's history record: ``schedule`` values, seconds, and the last terms read.
@@ -135,8 +132,7 @@ class StageLog:
         Only the terms this run computes appear: a 0.0 for an unused term would read as a
         perfect fit.
         """
-        if self.bar is not None:
-            self.bar.close()
+        self.bar.close()
         return {**schedule, "seconds": time.perf_counter() - self.t0, **self.last}
 
 

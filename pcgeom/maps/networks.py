@@ -10,9 +10,9 @@ import torch
 from ..config import OptimizerConfig, ParamConfig
 from ..domains import Domain
 from ..nets import LambdaInvNet, ParamNet
-from .data import TrainData
-from .objective import Batch, Objective, StageLog, landmark_fit, step
-from .plan import Stage
+from ..train.data import TrainData
+from ..train.objective import Batch, Objective, StageLog, landmark_fit, step
+from ..train.plan import Stage
 
 __all__ = ["Networks", "build_networks", "initial_plane", "run_network_stage"]
 

@@ -1,9 +1,13 @@
-"""``parametrize``: prepare the cloud, run Algorithm 1's stages, refine, return a result.
+"""``parametrize``: prepare the cloud, choose the map (:func:`choose_map`), make it, return a
+result.
 
-A run is: validate and normalize the cloud, train the parametrization net ``f`` and the
-inverse-lambda net ``l`` stage by stage with Algorithm 1 (the batch doubles, the epochs halve,
-sigma shrinks by sqrt 2, alpha ramps and doubles, with caps), then, when the config refines
-(the ``fast`` preset), refine the per-point map on local LEG pairs.
+A run is: validate, deduplicate and normalize the cloud, then one of the maps of
+:data:`MAPS`: the local mesh's free LSCM map, its conformal disk map, the local mesh laid on
+the domain and refined (all three without training), or the paper's method: the
+parametrization net ``f`` and the inverse-lambda net ``l`` trained stage by stage with
+Algorithm 1 (the batch doubles, the epochs halve, sigma shrinks by sqrt 2, alpha ramps and
+doubles, with caps), then, when the config refines, the per-point map refined on local LEG
+pairs.
 
 Normalization: the cloud is translated so its centroid is at the origin and scaled so the
 farthest point is at distance 1 (``X_n = (X - center) / scale``). Sigma and alpha are in these
@@ -26,16 +30,28 @@ from ..config import ParamConfig, get_preset
 from ..domains import Disk, Domain, get_domain
 from ..errors import InputError
 from ..io.results import ParamResult
-from .checkpoint import load_checkpoint, save_checkpoint
-from .data import TrainData
-from .device import resolve_device
-from .localmesh import localmesh_domain_map, localmesh_map
+from ..progress import log
+from ..train.checkpoint import load_checkpoint, save_checkpoint
+from ..train.data import TrainData
+from ..train.device import resolve_device
+from ..train.objective import Objective
+from ..train.plan import stage_plan
+from .disk import disk_map
+from .domain import domain_map
+from .free import free_map
 from .networks import build_networks, run_network_stage
-from .objective import Objective
-from .plan import stage_plan
 from .refine import refine
 
-__all__ = ["parametrize"]
+__all__ = ["parametrize", "choose_map", "MAPS"]
+
+MAPS = {
+    "free": "the free LSCM map of the local mesh (pcgeom.maps.free), no training",
+    "disk": "the conformal disk map: free map, then the Riemann map (pcgeom.maps.disk)",
+    "domain": "the local mesh laid on the domain, holes on holes, then refined "
+              "(pcgeom.maps.domain)",
+    "networks": "Algorithm 1's network stages, then the refinement (pcgeom.maps.networks)",
+}
+"""The maps a run can make, by the name :func:`choose_map` gives."""
 
 _DTYPES = {"float32": torch.float32, "float64": torch.float64}
 
@@ -55,6 +71,22 @@ def _landmark_tensors(landmarks, center, scale, device, dtype):
         points.append(torch.tensor((p - center) / scale, device=device, dtype=dtype))
         targets.append(torch.tensor(q, device=device, dtype=dtype))
     return points, targets
+
+
+def choose_map(domain: Domain, config: ParamConfig, landmarks: bool) -> str:
+    """Which map of :data:`MAPS` makes a run onto ``domain`` with ``config``.
+
+    The free boundary: ``config.free_map``. A disk without landmarks: ``config.disk_map``
+    (laid and refined when ``local_mesh.disk_refine``). Any other bounded domain, and any
+    domain with landmarks: ``config.domain_map``.
+    """
+    if not domain.bounded:
+        return "free" if config.free_map == "localmesh" else "networks"
+    if isinstance(domain, Disk) and not landmarks:
+        if config.disk_map != "localmesh":
+            return "networks"
+        return "domain" if config.local_mesh.disk_refine else "disk"
+    return "domain" if config.domain_map == "localmesh" else "networks"
 
 
 def parametrize(
@@ -101,7 +133,7 @@ def parametrize(
         Written after every network stage (the local-mesh maps have none); with
         ``resume=True`` a run continues from it.
     progress : bool
-        tqdm bars on stderr.
+        Progress on stderr: bars on a terminal, a few lines in a log (:mod:`pcgeom.progress`).
     on_stage : callable, optional
         Called after every stage (and the refinement) with the stage's history record and
         the current map, (N, 2) float64 in the input's row order: for per-stage curves of
@@ -113,7 +145,7 @@ def parametrize(
         the network stages give LEG pairs whose normals disagree weight 0 (when
         ``config.schedule.drop_cross_sheet``, as in ``networks`` and ``fast``), and the
         refinement drops those pairs from its neighbour lists. Without them, the local-mesh
-        map estimates and orients normals (:mod:`pcgeom.normals`), and the map may fold where
+        map estimates and orients normals (:mod:`pcgeom.maps.normals`), and the map may fold where
         sheets touch.
 
     Returns
@@ -138,26 +170,32 @@ def parametrize(
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
     if lm_points and not domain.bounded:
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
-    # Which map: the free boundary by free_map, a disk without landmarks by disk_map (then
-    # refined when local_mesh.disk_refine), any other bounded domain (and landmarks) by
-    # domain_map.
-    plain_disk = isinstance(domain, Disk) and not landmarks
-    conformal = plain_disk and config.disk_map == "localmesh"
-    free = not domain.bounded and config.free_map == "localmesh"
-    disk = conformal and not config.local_mesh.disk_refine
-    laid = ((conformal and config.local_mesh.disk_refine)
-            or (domain.bounded and not plain_disk and config.domain_map == "localmesh"))
-    if free or disk:
-        uv, lam_inv, record = localmesh_map(Xn, normals, config, domain, device=dev,
-                                            dtype=dtype, seed=seed, progress=progress)
-        if on_stage is not None:
-            on_stage(record, uv[inverse])
+    kind = choose_map(domain, config, bool(landmarks))
+    log(f"{len(P)} points onto {domain.label}: the {kind} map", enabled=progress)
+
+    def result(uv, lam_inv, history) -> ParamResult:
+        """The run's result, rows back in the input's order (duplicates included)."""
         return ParamResult(
-            uv=uv[inverse], lambda_inv=lam_inv[inverse], center=center, scale=float(scale),
-            config=config, domain=domain, seed=seed, history=[record],
-            seconds=time.perf_counter() - t_start, fingerprint=fingerprint(P),
-            version=__version__,
+            uv=np.asarray(uv, dtype=np.float64)[inverse],
+            lambda_inv=np.asarray(lam_inv, dtype=np.float64)[inverse],
+            center=center, scale=float(scale), config=config, domain=domain, seed=seed,
+            history=history, seconds=time.perf_counter() - t_start,
+            fingerprint=fingerprint(P), version=__version__,
         )
+
+    def report(record: dict, U) -> None:
+        if on_stage is not None:
+            on_stage(record, _numpy(U)[inverse])
+
+    if kind == "free":
+        uv, lam_inv, record = free_map(Xn, normals, config, device=dev, dtype=dtype, seed=seed,
+                                       progress=progress)
+        report(record, uv)
+        return result(uv, lam_inv, [record])
+    if kind == "disk":
+        uv, lam_inv, record = disk_map(Xn, normals, config, domain, progress=progress)
+        report(record, uv)
+        return result(uv, lam_inv, [record])
     W = None
     if domain.bounded:
         W = torch.tensor(domain.sample(config.domain_samples, seed=seed), device=dev, dtype=dtype)
@@ -165,23 +203,13 @@ def parametrize(
     data = TrainData(torch.tensor(Xn, device=dev, dtype=dtype), W, lm_points, lm_targets, gen,
                      None if normals is None else torch.tensor(normals, device=dev, dtype=dtype))
     objective = Objective(config.weights, lm_targets)
-    if laid:
-        torch.manual_seed(seed)
-        gen.manual_seed(seed)
-        U, lam_inv, history = localmesh_domain_map(
-            Xn, normals, config, domain, data, objective, progress=progress,
-            on_stage=None if on_stage is None else lambda r, u: on_stage(r, u[inverse]))
-        return ParamResult(
-            uv=U.cpu().double().numpy()[inverse],
-            lambda_inv=lam_inv.cpu().double().numpy()[inverse],
-            center=center, scale=float(scale), config=config, domain=domain, seed=seed,
-            history=history, seconds=time.perf_counter() - t_start, fingerprint=fingerprint(P),
-            version=__version__,
-        )
-    stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
-
     torch.manual_seed(seed)
     gen.manual_seed(seed)
+    if kind == "domain":
+        U, lam_inv, history = domain_map(Xn, normals, config, domain, data, objective,
+                                         progress=progress, on_stage=report)
+        return result(_numpy(U), _numpy(lam_inv), history)
+    stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
     nets = build_networks(config, Xn, domain, data)
     # What a checkpoint must share with this run to be resumed.
     identity = {"fingerprint": fingerprint(P), "config": config.to_dict(), "seed": seed,
@@ -199,10 +227,6 @@ def parametrize(
         history = state["history"]
         start_stage = state["next_stage"]
 
-    def current_map() -> np.ndarray:
-        with torch.no_grad():
-            return nets.param_net(data.X).cpu().double().numpy()[inverse]
-
     for stage in stages[start_stage:]:
         record = run_network_stage(stage, nets, data, objective, n_stages=len(stages),
                                    progress=progress)
@@ -218,7 +242,8 @@ def parametrize(
                 **identity,
             })
         if on_stage is not None:
-            on_stage(record, current_map())
+            with torch.no_grad():
+                report(record, nets.param_net(data.X))
 
     with torch.no_grad():
         U = nets.param_net(data.X)
@@ -227,18 +252,12 @@ def parametrize(
         U, lam_inv, record = refine(data, Xn, (U, lam_inv), objective, config.refine,
                                     normals=normals, progress=progress)
         history.append(record)
-        if on_stage is not None:
-            on_stage(record, U.cpu().double().numpy()[inverse])
-    return ParamResult(
-        uv=U.detach().cpu().double().numpy()[inverse],
-        lambda_inv=lam_inv.detach().cpu().double().numpy()[inverse],
-        center=center,
-        scale=float(scale),
-        config=config,
-        domain=domain,
-        seed=seed,
-        history=history,
-        seconds=time.perf_counter() - t_start,
-        fingerprint=identity["fingerprint"],
-        version=__version__,
-    )
+        report(record, U)
+    return result(_numpy(U), _numpy(lam_inv), history)
+
+
+def _numpy(A) -> np.ndarray:
+    """A map or lambda, tensor or array, as float64 NumPy."""
+    if isinstance(A, torch.Tensor):
+        return A.detach().cpu().double().numpy()
+    return np.asarray(A, dtype=np.float64)

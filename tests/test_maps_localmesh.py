@@ -7,10 +7,10 @@ import pytest
 
 from pcgeom import InputError, parametrize
 from pcgeom.config import LocalMeshConfig, get_preset
-from pcgeom.localmesh import conformal_factor, local_mesh, lscm_free
+from pcgeom.maps.free import conformal_factor, lscm_free
+from pcgeom.maps.localmesh import CLOSED_SURFACE, local_mesh
+from pcgeom.maps.normals import estimate_normals, orient_normals
 from pcgeom.metrics import angle_distortion
-from pcgeom.normals import estimate_normals, orient_normals
-from pcgeom.train.localmesh import CLOSED_SURFACE
 
 
 def _grid_faces(ns: int, ny: int) -> np.ndarray:
@@ -212,7 +212,7 @@ def test_outliers_are_mapped_last_not_dropped():
 
 
 def test_a_volume_of_points_is_not_a_surface():
-    from pcgeom.train.localmesh import NOT_A_SURFACE
+    from pcgeom.maps.localmesh import NOT_A_SURFACE
 
     blob = np.random.default_rng(7).normal(size=(2000, 3))
     with pytest.raises(InputError) as info:
@@ -261,7 +261,8 @@ def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
     """The disk map's planar triangulation: Delaunay triangles inside the loop, CCW."""
     import shapely
 
-    from pcgeom.localmesh import _boundary_loops, _planar_mesh
+    from pcgeom.maps.disk import _planar_mesh
+    from pcgeom.maps.localmesh import _boundary_loops
 
     P = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.45], [3.0, 0.5]], dtype=float)
     T = _planar_mesh(P, np.array([0, 1, 2, 3]))

@@ -1,4 +1,4 @@
-"""The local mesh laid on a domain (pcgeom.domainmap)."""
+"""The local mesh laid on a domain (pcgeom.maps.domain)."""
 
 from __future__ import annotations
 
@@ -11,10 +11,11 @@ import pytest
 import shapely
 
 from pcgeom.cloud import normalize
-from pcgeom.domainmap import harmonic_onto
 from pcgeom.domains import Annulus, ShapelyDomain, Smile, Square
 from pcgeom.errors import InputError
-from pcgeom.localmesh import local_mesh, lscm_free
+from pcgeom.maps.domain import harmonic_onto
+from pcgeom.maps.free import lscm_free
+from pcgeom.maps.localmesh import local_mesh
 
 
 def _sheet(domain, n: int, turn: float, mirror: bool, bump: float = 0.0):
@@ -93,8 +94,8 @@ def test_harmonic_onto_refuses_a_domain_of_two_parts():
 
 def test_landmarks_turn_the_conformal_disk_map():
     from pcgeom.domains import Disk
-    from pcgeom.domainmap import align_onto
-    from pcgeom.localmesh import conformal_disk
+    from pcgeom.maps.disk import conformal_disk
+    from pcgeom.maps.domain import align_onto
 
     disk = Disk()
     P, X, normals = _sheet(disk, 2000, 0.9, True)

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cloud import local_pca
+from ..cloud import local_pca
 
 __all__ = ["estimate_normals", "orient_normals"]
 

@@ -3,7 +3,7 @@
 The networks of the paper pull a cloud onto a domain by HAND from a start that knows nothing
 of the domain's holes, so a hole of the cloud lands wherever the first stages happen to put it
 (three-hole face onto the smiling face, ``networks``: no hole on its eye or mouth). The local
-mesh (:mod:`pcgeom.localmesh`) has boundary loops, and so has the domain; matching them gives a
+mesh (:mod:`pcgeom.maps.localmesh`) has boundary loops, and so has the domain; matching them gives a
 start in which every hole is where it belongs:
 
 1. **Loops.** The mesh is made vertex-manifold; its boundary loops in the free LSCM map are
@@ -21,7 +21,7 @@ start in which every hole is where it belongs:
    orientation: outer counter-clockwise, holes clockwise). Loops left unpaired (holes of the
    mesh that are not holes of the domain) stay free.
 4. **Harmonic extension.** The interior is the harmonic map with those boundary values
-   (libigl's cotangent Laplacian), as the disk map of :func:`pcgeom.localmesh.conformal_disk`.
+   (libigl's cotangent Laplacian), as the disk map of :func:`pcgeom.maps.disk.conformal_disk`.
 
 A harmonic map onto a region that is not convex may cross a hole near its rim; the
 refinement that follows (:attr:`pcgeom.config.LocalMeshConfig.domain_refine`: LEG on local
@@ -37,17 +37,29 @@ on 2 cores (the networks, without this start: no hole lands, 0.155 rad, 287 s).
 from __future__ import annotations
 
 import itertools
+import time
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .domains import Domain
-from .errors import InputError
-from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part,
-                        _signed_area, _spd_factor, _submesh, _vertex_manifold)
+import torch
 
-__all__ = ["harmonic_onto", "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS",
+from ..config import ParamConfig
+from ..domains import Disk, Domain
+from ..errors import InputError
+from ..losses import landmark_hand
+from ..metrics import hausdorff
+from ..train.data import TrainData
+from ..train.objective import Objective
+from ._sparse import spd_factor
+from .disk import conformal_disk
+from .free import conformal_factor, free_start
+from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part,
+                        _signed_area, _submesh, _vertex_manifold)
+from .refine import refine
+
+__all__ = ["domain_map", "harmonic_onto", "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS",
            "MIN_HOLE_RATIO"]
 
 ROTATIONS = 72
@@ -123,10 +135,15 @@ def _chamfer2(A: np.ndarray, B: np.ndarray, tree_B) -> float:
     return float(np.mean(tree_B.query(A)[0] ** 2) + np.mean(cKDTree(A).query(B)[0] ** 2))
 
 
-def _align(P: np.ndarray, region_area: float, region_centroid: np.ndarray, outer: np.ndarray,
-           holes: list[np.ndarray], rings: list[np.ndarray], domain: Domain,
+def _align(P: np.ndarray, region: tuple[float, np.ndarray], loops: tuple[np.ndarray, list],
+           rings: list[np.ndarray], domain: Domain,
            landmarks: list[tuple[np.ndarray, np.ndarray]]) -> Alignment:
-    """Step 2: the similarity of the free map ``P`` onto the domain (see the module)."""
+    """Step 2: the similarity of the free map ``P`` onto the domain (see the module).
+
+    ``region`` is the free map's area and area centroid, ``loops`` its outer loop and its
+    holes by decreasing area, ``rings`` the domain's outer ring and holes."""
+    region_area, region_centroid = region
+    outer, holes = loops
     import shapely
 
     D_holes = rings[1:]
@@ -226,7 +243,7 @@ def _laid_out(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, domain: Domain, la
         index = remap[np.asarray(index, dtype=np.int64)]
         if (index >= 0).any():
             marks.append((index[index >= 0], np.asarray(targets, dtype=np.float64)))
-    align = _align(P, region_area, region_centroid, outer, holes, rings, domain, marks)
+    align = _align(P, (region_area, region_centroid), (outer, holes), rings, domain, marks)
     return main, V, F, P, outer, holes, rings, align
 
 
@@ -266,7 +283,7 @@ def align_onto(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, domain: Domain, *
     """Step 2 alone: the map ``uv`` moved onto the domain by the chosen similarity.
 
     For a map already shaped like the domain, as the conformal disk map of
-    :func:`pcgeom.localmesh.conformal_disk` is the disk: the landmarks choose its turn and
+    :func:`pcgeom.maps.disk.conformal_disk` is the disk: the landmarks choose its turn and
     mirror. Parameters and returns as :func:`harmonic_onto`.
     """
     *_, holes, rings, align = _laid_out(X, mesh, uv, domain, landmarks)
@@ -284,7 +301,7 @@ def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: D
     mesh : LocalMesh
         Their local mesh.
     free_uv : (N, 2) float64
-        Its free LSCM map (:func:`pcgeom.localmesh.lscm_free`).
+        Its free LSCM map (:func:`pcgeom.maps.free.lscm_free`).
     domain : Domain
         A bounded domain of one connected region.
     landmarks : sequence of ((n_k,) int, (m_k, 2) float64)
@@ -332,7 +349,7 @@ def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: D
     D = np.zeros((n, 2))
     D[fixed_idx] = fixed_uv
     if len(free):
-        D[free] = _spd_factor(L[free][:, free])(np.asarray(-(L[free][:, fixed_idx] @ fixed_uv)))
+        D[free] = spd_factor(L[free][:, free])(np.asarray(-(L[free][:, fixed_idx] @ fixed_uv)))
     if not np.isfinite(D).all():
         raise InputError("the local mesh of the cloud is degenerate (no harmonic map onto the "
                          "domain); try the 'networks' preset")
@@ -344,3 +361,77 @@ def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: D
     info = _info(holes, rings, align)
     info["hole_area_ratios"] = [round(r, 4) for r in ratios]
     return _interpolate_rest(X, U, known), info
+
+
+def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
+               domain: Domain, data: TrainData, objective: Objective, *,
+               progress: bool, on_stage=None) -> tuple[torch.Tensor, torch.Tensor, list[dict]]:
+    """The local mesh laid on a bounded domain, holes on holes, then refined.
+
+    :func:`harmonic_onto` gives the first map, or for a disk the conformal disk map turned by
+    :func:`align_onto` (the landmarks, when any, help choose the alignment);
+    :func:`pcgeom.maps.refine.refine` with ``config.local_mesh.domain_refine`` then optimizes
+    it on LEG (local pairs), HAND onto the domain sample ``data.W`` and the landmark terms.
+
+    Parameters
+    ----------
+    Xn, normals, config
+        As :func:`pcgeom.maps.free.free_map`.
+    domain : Domain
+        Bounded, one connected region.
+    data : TrainData
+        The run's tensors: the cloud, the domain sample, the landmarks.
+    objective : Objective
+        The run's objective (its weights and landmark targets).
+    on_stage : callable, optional
+        Called with each history record and the map after it, (N, 2) float64.
+
+    Returns
+    -------
+    U : (N, 2) tensor
+    lam_inv : (N,) tensor
+    records : list of dict
+        The ``"localmesh"`` record (as :func:`pcgeom.maps.free.free_map`'s, plus ``onto``, the
+        holes of the mesh and of the domain, how many were paired, the alignment's ``mirror``
+        and ``rotation_deg``, and, when there are landmarks, the landmark HAND term
+        ``landmarks`` at the refinement's alpha and ``landmark_hausdorff`` of the first map),
+        then the refinement's when it has steps.
+    """
+    from scipy.spatial import cKDTree
+
+    t0 = time.perf_counter()
+    uv, mesh, normals, record = free_start(Xn, normals, config, progress=progress)
+    tree = cKDTree(Xn)
+    # Each landmark point acts through its nearest cloud point, as in the refinement.
+    marks = [(tree.query(p.cpu().double().numpy())[1], q.cpu().double().numpy())
+             for p, q in zip(data.landmark_points, data.landmark_targets)]
+    if isinstance(domain, Disk):
+        # The conformal disk map is the better start (three peaks, refined: 0.026 rad and no
+        # flip from it, 0.045 rad and 261 flips from the harmonic map); the landmarks choose
+        # its turn.
+        disk = np.asarray(domain.center) + domain.radius * conformal_disk(Xn, mesh, uv)
+        U0, info = align_onto(Xn, mesh, disk, domain, landmarks=marks)
+    else:
+        U0, info = harmonic_onto(Xn, mesh, uv, domain, landmarks=marks)
+    record.update(onto=domain.spec, **info)
+    refine_config = config.local_mesh.domain_refine
+    if marks:
+        # The landmark term as the refinement will weigh it (its alpha), and the exact fit.
+        with torch.no_grad():
+            term = landmark_hand([torch.as_tensor(U0[i]) for i, _ in marks],
+                                 [torch.as_tensor(q) for _, q in marks], refine_config.alpha)
+        record["landmarks"] = float(term)
+        record["landmark_hausdorff"] = [hausdorff(U0[i], q) for i, q in marks]
+    record["seconds"] = time.perf_counter() - t0
+    records = [record]
+    if on_stage is not None:
+        on_stage(record, U0)
+    U = torch.tensor(U0, device=data.X.device, dtype=data.X.dtype)
+    lam_inv = torch.tensor(conformal_factor(Xn, U0), device=data.X.device, dtype=data.X.dtype)
+    if refine_config.steps > 0:
+        U, lam_inv, refined = refine(data, Xn, (U, lam_inv), objective, refine_config,
+                                     normals=normals, progress=progress)
+        records.append(refined)
+        if on_stage is not None:
+            on_stage(refined, U.cpu().double().numpy())
+    return U, lam_inv, records

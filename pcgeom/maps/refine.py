@@ -6,8 +6,8 @@ import numpy as np
 import torch
 
 from ..config import RefineConfig
-from .data import TrainData
-from .objective import Batch, Objective, StageLog, landmark_fit, step
+from ..train.data import TrainData
+from ..train.objective import Batch, Objective, StageLog, landmark_fit, step
 
 __all__ = ["refine", "refine_hand_backend", "DENSE_HAND_MAX"]
 

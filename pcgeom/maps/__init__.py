@@ -1,0 +1,38 @@
+"""The mapping methods, one module for each map they make, and :func:`parametrize`, which
+chooses among them (:func:`pcgeom.maps.run.choose_map`).
+
+=====================  ==============================================================
+module                 what it makes
+=====================  ==============================================================
+:mod:`.localmesh`      the local mesh of a cloud (same-sheet tangent fans, merged into
+                       a manifold); :func:`mesh_cloud`: outliers, surface test,
+                       normals, mesh
+:mod:`.normals`        normals of a bare cloud (PCA, oriented by propagation)
+:mod:`.free`           the free-boundary conformal map (LSCM of the local mesh), the
+                       conformal factor; :func:`free_map`
+:mod:`.disk`           the conformal disk map (free map, then the Riemann map of its
+                       planar region); :func:`disk_map`
+:mod:`.domain`         the local mesh laid on any bounded domain, holes on holes
+                       (:func:`harmonic_onto`, :func:`align_onto`), then refined;
+                       :func:`domain_map`
+:mod:`.networks`       the paper's two sine networks trained stage by stage
+                       (Algorithm 1)
+:mod:`.refine`         the per-point refinement (LEG on local pairs, HAND, landmarks)
+:mod:`.run`            :func:`parametrize`, :func:`choose_map`, :data:`MAPS`
+=====================  ==============================================================
+"""
+
+from .disk import conformal_disk, disk_map
+from .domain import align_onto, domain_map, harmonic_onto
+from .free import conformal_factor, free_map, lscm_free
+from .localmesh import LocalMesh, local_mesh, mesh_cloud
+from .normals import estimate_normals, orient_normals
+from .run import MAPS, choose_map, parametrize
+
+__all__ = [
+    "parametrize", "choose_map", "MAPS",
+    "LocalMesh", "local_mesh", "mesh_cloud", "estimate_normals", "orient_normals",
+    "lscm_free", "conformal_factor", "free_map",
+    "conformal_disk", "disk_map",
+    "harmonic_onto", "align_onto", "domain_map",
+]
