@@ -35,6 +35,22 @@ def _one_line(exc: BaseException) -> str:
     return text if text else type(exc).__name__
 
 
+def _float_rows(X, name: str, columns: int) -> np.ndarray:
+    """``X`` as a float64 ``(N, columns)`` array whose rows are all finite, or a one-line
+    InputError naming ``name``: the entry checks of :func:`validate_points`, shared with the
+    checks of maps (``columns=2``)."""
+    try:
+        X = np.asarray(X, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: cannot convert to a float array ({_one_line(exc)})") from None
+    if X.ndim != 2 or X.shape[1] != columns:
+        raise InputError(f"{name}: expected shape (N, {columns}), got {X.shape}")
+    bad_rows = int((~np.isfinite(X)).any(axis=1).sum())
+    if bad_rows:
+        raise InputError(f"{name}: {bad_rows} of {len(X)} rows contain NaN or inf")
+    return X
+
+
 def validate_points(P, name: str = "points", min_points: int = 10) -> np.ndarray:
     """Check that ``P`` is a usable cloud of 3D points and return it as float64.
 
@@ -62,15 +78,7 @@ def validate_points(P, name: str = "points", min_points: int = 10) -> np.ndarray
         all points coincident; all points on one line (second singular value of the centred
         cloud below ``1e-9`` times the first); fewer than ``min_points`` distinct points.
     """
-    try:
-        P = np.asarray(P, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name}: cannot convert to a float array ({_one_line(exc)})") from None
-    if P.ndim != 2 or P.shape[1] != 3:
-        raise InputError(f"{name}: expected shape (N, 3), got {P.shape}")
-    bad_rows = int((~np.isfinite(P)).any(axis=1).sum())
-    if bad_rows:
-        raise InputError(f"{name}: {bad_rows} of {len(P)} rows contain NaN or inf")
+    P = _float_rows(P, name, 3)
     n = len(P)
     if n < min_points:
         raise InputError(f"{name}: {n} points, need at least {min_points}")

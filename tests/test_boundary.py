@@ -268,7 +268,7 @@ def test_min_width_measures_holes_on_the_surface_and_drops_the_narrow_ones():
     ({"min_loop": 4.0}, "min_loop: expected an integer >= 3, got 4.0"),
     ({"points": np.zeros((49, 3))}, r"points: expected shape \(50, 3\) \(one row per map row\), "
                                     r"got \(49, 3\)"),
-    ({"points": np.full((50, 3), np.nan)}, "points: contains NaN or inf"),
+    ({"points": np.full((50, 3), np.nan)}, "points: 50 of 50 rows contain NaN or inf"),
     ({"points": np.zeros((50, 3)), "min_width": -1},
      "min_width: expected a non-negative number, got -1.0"),
     ({"cloud_spacing": True}, r"cloud_spacing: needs the cloud \(points\)"),

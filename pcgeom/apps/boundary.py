@@ -143,7 +143,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cloud import _one_line, deduplicate
+from ..cloud import _float_rows, deduplicate
 from ..errors import InputError
 
 __all__ = ["BoundaryLoops", "detect_boundary", "local_spacing", "hole_width", "DEFAULT_C",
@@ -211,17 +211,8 @@ class BoundaryLoops:
 
 
 def _validate_map(U) -> np.ndarray:
-    """``U`` as a finite (N, 2) float64 array with 3 or more distinct points, or InputError."""
-    try:
-        U = np.asarray(U, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"U: cannot convert to a float array ({_one_line(exc)})") from None
-    if U.ndim != 2 or U.shape[1] != 2:
-        raise InputError(f"U: expected shape (N, 2), got {U.shape}")
-    bad_rows = int((~np.isfinite(U)).any(axis=1).sum())
-    if bad_rows:
-        raise InputError(f"U: {bad_rows} of {len(U)} rows contain NaN or inf")
-    return U
+    """``U`` as a finite (N, 2) float64 array, or InputError."""
+    return _float_rows(U, "U", 2)
 
 
 def _check_positive(value, name: str) -> float:
@@ -244,14 +235,9 @@ def _check_number(value, name: str, *, allow_zero: bool) -> float:
 
 def _validate_points_of(points, n: int) -> np.ndarray:
     """``points`` as a finite (n, 3) float64 array (the cloud of a map of n rows)."""
-    try:
-        X = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"points: cannot convert to a float array ({_one_line(exc)})") from None
-    if X.shape != (n, 3):
+    X = _float_rows(points, "points", 3)
+    if len(X) != n:
         raise InputError(f"points: expected shape ({n}, 3) (one row per map row), got {X.shape}")
-    if not np.isfinite(X).all():
-        raise InputError("points: contains NaN or inf")
     return X
 
 
