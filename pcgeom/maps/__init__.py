@@ -12,9 +12,13 @@ module                 what it makes
                        conformal factor; :func:`free_map`
 :mod:`.disk`           the conformal disk map (free map, then the Riemann map of its
                        planar region); :func:`disk_map`
-:mod:`.domain`         the local mesh laid on any bounded domain, holes on holes
-                       (:func:`harmonic_onto`, :func:`align_onto`), then refined;
-                       :func:`domain_map`
+:mod:`.riemann`        the conformal map onto a domain without holes: the disk map
+                       composed with the domain's inverse Riemann map
+                       (:func:`riemann_onto`)
+:mod:`.domain`         the map onto any other bounded domain: :func:`domain_map` (the
+                       Riemann composition, or the local mesh laid on the domain,
+                       holes on holes, :func:`harmonic_onto`, :func:`align_onto`,
+                       then refined)
 :mod:`.networks`       the paper's two sine networks trained stage by stage
                        (Algorithm 1)
 :mod:`.refine`         the per-point refinement (LEG on local pairs, HAND, landmarks)
@@ -27,6 +31,7 @@ from .domain import align_onto, domain_map, harmonic_onto
 from .free import conformal_factor, free_map, lscm_free
 from .localmesh import LocalMesh, local_mesh, mesh_cloud
 from .normals import estimate_normals, orient_normals
+from .riemann import riemann_onto
 from .run import MAPS, choose_map, parametrize
 
 __all__ = [
@@ -34,5 +39,5 @@ __all__ = [
     "LocalMesh", "local_mesh", "mesh_cloud", "estimate_normals", "orient_normals",
     "lscm_free", "conformal_factor", "free_map",
     "conformal_disk", "disk_map",
-    "harmonic_onto", "align_onto", "domain_map",
+    "harmonic_onto", "align_onto", "domain_map", "riemann_onto",
 ]

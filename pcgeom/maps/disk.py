@@ -47,8 +47,11 @@ def _planar_mesh(P: np.ndarray, loop: np.ndarray) -> np.ndarray:
     tri = Delaunay(P).simplices.astype(np.int64)
     tri = tri[shapely.contains(region, shapely.polygons(P[tri]))]
     a, b = P[tri[:, 1]] - P[tri[:, 0]], P[tri[:, 2]] - P[tri[:, 0]]
-    clockwise = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0
-    tri[clockwise] = tri[clockwise][:, [0, 2, 1]]
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    tri[cross < 0] = tri[cross < 0][:, [0, 2, 1]]
+    # qhull leaves flat triangles over collinear rim points (a grid's straight side): their
+    # cotangent weights are infinite and the disk map's system singular.
+    tri = tri[np.abs(cross) > 1e-12 * region.area]
     return _vertex_manifold(_peel_rim(P, tri))
 
 

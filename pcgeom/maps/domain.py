@@ -36,6 +36,7 @@ on 2 cores (the networks, without this start: no hole lands, 0.155 rad, 287 s).
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import time
 import math
@@ -58,6 +59,7 @@ from .free import conformal_factor, free_start
 from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part,
                         _signed_area, _submesh, _vertex_manifold)
 from .refine import refine
+from .riemann import riemann_onto, simply_connected
 
 __all__ = ["domain_map", "harmonic_onto", "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS",
            "MIN_HOLE_RATIO"]
@@ -405,16 +407,25 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
     # Each landmark point acts through its nearest cloud point, as in the refinement.
     marks = [(tree.query(p.cpu().double().numpy())[1], q.cpu().double().numpy())
              for p, q in zip(data.landmark_points, data.landmark_targets)]
+    refine_config = config.local_mesh.domain_refine
+    method = "harmonic"
     if isinstance(domain, Disk):
         # The conformal disk map is the better start (three peaks, refined: 0.026 rad and no
         # flip from it, 0.045 rad and 261 flips from the harmonic map); the landmarks choose
         # its turn.
         disk = np.asarray(domain.center) + domain.radius * conformal_disk(Xn, mesh, uv)
         U0, info = align_onto(Xn, mesh, disk, domain, landmarks=marks)
+        method = "disk"
+    elif config.local_mesh.domain_method == "injective" and simply_connected(domain) \
+            and not marks:
+        # Conformal and injective as it is: a refinement could only fold it.
+        U0, info = riemann_onto(Xn, mesh.faces, conformal_disk(Xn, mesh, uv), domain,
+                                landmarks=marks)
+        method = "riemann"
+        refine_config = dataclasses.replace(refine_config, steps=0)
     else:
         U0, info = harmonic_onto(Xn, mesh, uv, domain, landmarks=marks)
-    record.update(onto=domain.spec, **info)
-    refine_config = config.local_mesh.domain_refine
+    record.update(onto=domain.spec, method=method, **info)
     if marks:
         # The landmark term as the refinement will weigh it (its alpha), and the exact fit.
         with torch.no_grad():

@@ -47,8 +47,9 @@ __all__ = ["parametrize", "choose_map", "MAPS"]
 MAPS = {
     "free": "the free LSCM map of the local mesh (pcgeom.maps.free), no training",
     "disk": "the conformal disk map: free map, then the Riemann map (pcgeom.maps.disk)",
-    "domain": "the local mesh laid on the domain, holes on holes, then refined "
-              "(pcgeom.maps.domain)",
+    "domain": "onto a domain without holes, the disk map composed with its inverse Riemann "
+              "map (pcgeom.maps.riemann); else the local mesh laid on the domain, holes on "
+              "holes, then refined (pcgeom.maps.domain)",
     "networks": "Algorithm 1's network stages, then the refinement (pcgeom.maps.networks)",
 }
 """The maps a run can make, by the name :func:`choose_map` gives."""

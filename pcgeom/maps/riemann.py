@@ -1,0 +1,379 @@
+"""Conformal maps onto a simply connected domain: the disk map composed with the inverse Riemann
+map of the domain (not in the paper).
+
+The conformal disk map (:func:`pcgeom.maps.disk.conformal_disk`) takes the surface onto the
+unit disk without folding it. A simply connected domain ``Omega`` (square, rectangle, car, a
+polygon without holes) has its own Riemann map ``g : Omega -> disk``, computed the same way on
+a mesh of the domain. Then ``g^-1 o R o d``, with ``R`` a rotation (or a mirror, since
+estimated normals have no preferred side), maps the surface onto ``Omega``:
+
+1. **The domain's mesh.** The domain's ring, its edges split to a spacing ``h``, and the
+   domain's own quasi-uniform sample (points closer than ``h / 2`` to the ring dropped) are
+   Delaunay-triangulated; the triangles inside the ring are kept.
+2. **Its Riemann map** (:func:`pcgeom.maps.disk._harmonic_measure_disk`): the boundary spread
+   on the circle by harmonic measure, the interior harmonic; then balanced by disk
+   automorphisms so that the area-weighted mean of the domain's image is the centre, as the
+   cloud's disk map is balanced so that its points' mean is (the points sample the surface's
+   area evenly). Both disks then have their area's centre at 0.
+3. **The rotation.** Among :data:`ROTATIONS` rotations, mirrored or not, the one whose
+   composed map stretches the local mesh's triangles most evenly: the smallest area-weighted
+   variance of ``log(area in Omega / area in 3D)``; with landmarks, plus the Chamfer distance
+   of the mapped landmark points to their targets, over the domain's area.
+4. **The inverse.** Each point's image in the disk is located in the domain mesh's disk image
+   (among the triangles of the nearest centroids) and takes the barycentric combination of that
+   triangle's domain positions. Points just outside the polygon that approximates the circle
+   take the nearest point of its rim.
+
+Both maps are conformal, so is their composition: only the discretization and the domain's
+corners (where ``g`` is singular) distort angles. Each step is a bijection (the Riemann map
+of a Delaunay mesh onto the convex disk does not fold; the inverse is piecewise linear), so
+the composition folds no triangle whose corners lie in one domain triangle; a surface
+triangle across several domain triangles could only turn over where it is larger than the
+domain mesh's features. The surface's own holes stay holes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..domains import Domain
+from ..errors import InputError
+from .disk import _harmonic_measure_disk
+
+__all__ = ["DomainDisk", "domain_disk", "riemann_onto", "simply_connected", "snap_corners", "DOMAIN_MESH_POINTS", "ROTATIONS"]
+
+DOMAIN_MESH_POINTS = 20_000
+"""Interior points of the domain's mesh (about twice as many triangles)."""
+
+ROTATIONS = 72
+"""Evenly spaced rotations the composition tries, each mirrored or not."""
+
+CORNER_DEG = 15.0
+"""A vertex of the domain's ring where it turns by more than this (degrees) is a corner: a
+rim point of the cloud is sent exactly onto it (step 5)."""
+
+_SCORE_FACES = 4000
+"""Triangles of the local mesh (a fixed random subset) that judge the rotations."""
+
+
+class DomainDisk:
+    """A mesh of a simply connected domain and its Riemann map onto the unit disk.
+
+    Attributes
+    ----------
+    V : (n, 2) float64
+        Vertices in the domain.
+    F : (m, 3) int64
+        Counter-clockwise triangles.
+    D : (n, 2) float64
+        The vertices' images in the unit disk.
+    rim : (k,) int64
+        The boundary loop, counter-clockwise.
+    corners : (c,) int64
+        The rim vertices at the domain's corners (its ring turns there by more than
+        :data:`CORNER_DEG`).
+    """
+
+    def __init__(self, V: np.ndarray, F: np.ndarray, D: np.ndarray, rim: np.ndarray,
+                 corners: np.ndarray) -> None:
+        import shapely
+        from scipy.spatial import cKDTree
+
+        self.V, self.F, self.D, self.rim, self.corners = V, F, D, rim, corners
+        self._centroids = cKDTree(D[F].mean(axis=1))
+        self._ring = shapely.LinearRing(D[rim])
+        seg = np.linalg.norm(np.roll(D[rim], -1, axis=0) - D[rim], axis=1)
+        self._cum = np.concatenate([[0.0], np.cumsum(seg)])
+
+    def _barycentric(self, Z: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """Barycentric coordinates (k, c, 3) of the points ``Z`` (k, 2) in the disk images of
+        the triangles ``T`` (k, c); a degenerate triangle gets -inf."""
+        A, B, C = (self.D[self.F[T, q]] for q in range(3))  # (k, c, 2)
+        z = Z[:, None, :]
+        det = ((B[..., 0] - A[..., 0]) * (C[..., 1] - A[..., 1])
+               - (B[..., 1] - A[..., 1]) * (C[..., 0] - A[..., 0]))
+        wb = ((z[..., 0] - A[..., 0]) * (C[..., 1] - A[..., 1])
+              - (z[..., 1] - A[..., 1]) * (C[..., 0] - A[..., 0]))
+        wc = ((B[..., 0] - A[..., 0]) * (z[..., 1] - A[..., 1])
+              - (B[..., 1] - A[..., 1]) * (z[..., 0] - A[..., 0]))
+        ok = det > 0
+        det = np.where(ok, det, 1.0)
+        W = np.stack([det - wb - wc, wb, wc], axis=-1) / det[..., None]
+        return np.where(ok[..., None], W, -np.inf)
+
+    def inverse(self, Z: np.ndarray, candidates: int = 12) -> np.ndarray:
+        """The domain points whose images are ``Z`` (k, 2): barycentric in the triangle
+        holding each (among those of the ``candidates`` nearest centroids), or, outside the
+        disk's polygon, at the nearest point of its rim."""
+        import shapely
+
+        Z = np.asarray(Z, dtype=np.float64)
+        _, T = self._centroids.query(Z, min(candidates, len(self.F)))
+        T = T.reshape(len(Z), -1)
+        W = self._barycentric(Z, T)  # (k, c, 3)
+        worst = W.min(axis=2)
+        best = np.argmax(worst, axis=1)
+        rows = np.arange(len(Z))
+        inside = worst[rows, best] >= -1e-9
+        out = np.empty_like(Z)
+        w = np.clip(W[rows, best], 0.0, 1.0)
+        w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
+        tri = self.F[T[rows, best]]  # (k, 3)
+        out[inside] = np.einsum("kq,kqd->kd", w[inside], self.V[tri[inside]])
+        if (~inside).any():
+            s = shapely.line_locate_point(self._ring, shapely.points(Z[~inside]))
+            k = np.clip(np.searchsorted(self._cum, s, side="right") - 1, 0, len(self.rim) - 1)
+            t = (s - self._cum[k]) / np.maximum(self._cum[k + 1] - self._cum[k], 1e-300)
+            a, b = self.rim[k], self.rim[(k + 1) % len(self.rim)]
+            out[~inside] = (1.0 - t)[:, None] * self.V[a] + t[:, None] * self.V[b]
+        return out
+
+
+def _ring_points(ring: np.ndarray, h: float) -> np.ndarray:
+    """The closed ``ring`` (k + 1, 2) with each edge split into pieces no longer than ``h``
+    (its own vertices, corners included, kept)."""
+    pieces = []
+    for a, b in zip(ring[:-1], ring[1:]):
+        k = max(1, math.ceil(np.linalg.norm(b - a) / h))
+        pieces.append(a + (b - a) * (np.arange(k) / k)[:, None])
+    return np.vstack(pieces)
+
+
+def _turns(P: np.ndarray) -> np.ndarray:
+    """The turning angle (radians, left positive) of the closed polygon ``P`` (k, 2) at each
+    vertex."""
+    a = P - np.roll(P, 1, axis=0)
+    b = np.roll(P, -1, axis=0) - P
+    return np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], (a * b).sum(axis=1))
+
+
+def _corner_points(ring: np.ndarray, h: float) -> np.ndarray:
+    """A point ``h`` inside each convex corner of the counter-clockwise ``ring`` (k + 1, 2),
+    on its bisector: it ties the corner to the interior. Without it, the Delaunay triangle at
+    a corner has three rim corners, and the corner gets no flux of harmonic measure (two rim
+    points on one spot of the circle, a degenerate triangle)."""
+    P = ring[:-1]
+    a = P - np.roll(P, 1, axis=0)
+    b = np.roll(P, -1, axis=0) - P
+    a /= np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-300)
+    b /= np.maximum(np.linalg.norm(b, axis=1, keepdims=True), 1e-300)
+    # Convex corners only (a left turn of more than CORNER_DEG): along a smooth arc the
+    # Delaunay triangles reach the interior anyway.
+    turn = _turns(P)
+    inward = b - a
+    norm = np.linalg.norm(inward, axis=1)
+    keep = (turn > math.radians(CORNER_DEG)) & (norm > 1e-9)
+    return P[keep] + h * inward[keep] / norm[keep, None]
+
+
+def _vertex_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    return np.bincount(F.ravel(), np.repeat(area / 3.0, 3), minlength=len(V))
+
+
+def _balance_weighted(D: np.ndarray, w: np.ndarray, rounds: int = 50) -> np.ndarray:
+    """Disk automorphisms ``z -> (z - a) / (1 - conj(a) z)`` until the ``w``-weighted mean of
+    the points is the centre."""
+    z = D[:, 0] + 1j * D[:, 1]
+    w = w / w.sum()
+    for _ in range(rounds):
+        a = (w * z).sum()
+        if abs(a) < 1e-9:
+            break
+        z = (z - a) / (1.0 - np.conj(a) * z)
+    return np.column_stack([z.real, z.imag])
+
+
+def simply_connected(domain: Domain) -> bool:
+    """A bounded domain of one region without holes: one boundary loop."""
+    return domain.bounded and len(domain.boundary_loops()) == 1
+
+
+def domain_disk(domain: Domain, n: int = DOMAIN_MESH_POINTS, seed: int = 0) -> DomainDisk:
+    """Mesh a simply connected bounded domain and compute its balanced Riemann map (steps 1-2
+    of the module).
+
+    Raises
+    ------
+    InputError
+        The domain has holes or several parts (it is not simply connected).
+    """
+    import shapely
+    from scipy.spatial import Delaunay, cKDTree
+
+    if not simply_connected(domain):
+        rings = domain.boundary_loops() if domain.bounded else [None]
+        raise InputError(f"domain {domain.label!r} is not simply connected (it has "
+                         f"{len(rings) - 1} hole(s)); its Riemann map needs one boundary loop")
+    ring = np.asarray(domain.boundary_loops()[0], dtype=np.float64)
+    if np.linalg.norm(ring[0] - ring[-1]) > 0:
+        ring = np.vstack([ring, ring[:1]])
+    if _signed_area(ring[:-1]) < 0:
+        ring = ring[::-1].copy()
+    h = math.sqrt(domain.area / n)
+    B = _ring_points(ring, 0.5 * h)
+    line = shapely.LineString(np.vstack([B, B[:1]]))
+    inner = domain.sample(n, seed=seed)
+    inner = inner[shapely.distance(line, shapely.points(inner)) > 0.5 * h]
+    inner = np.vstack([_corner_points(ring, 0.3 * h), inner])
+    V = np.vstack([B, inner])
+    polygon = shapely.Polygon(B).buffer(1e-9 * math.sqrt(domain.area))
+    shapely.prepare(polygon)
+    F = Delaunay(V).simplices.astype(np.int64)
+    F = F[shapely.contains(polygon, shapely.polygons(V[F]))]
+    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
+    cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    F[cross < 0] = F[cross < 0][:, [0, 2, 1]]
+    # qhull leaves flat triangles over runs of collinear rim points (straight sides).
+    F = F[np.abs(cross) > 1e-9 * h * h]
+    rim = np.arange(len(B))
+    # The ring's own corners are among the rim points (_ring_points keeps them).
+    ring_corners = ring[:-1][np.abs(_turns(ring[:-1])) > math.radians(CORNER_DEG)]
+    corners = np.unique(cKDTree(B).query(ring_corners)[1]) if len(ring_corners) else \
+        np.zeros(0, dtype=np.int64)
+    # The centre of the first map: the inner point farthest from the rim.
+    centre = len(B) + int(np.argmax(shapely.distance(line, shapely.points(inner))))
+    D = _harmonic_measure_disk(np.column_stack([V, np.zeros(len(V))]), F, rim, centre)
+    return DomainDisk(V, F, _balance_weighted(D, _vertex_areas(V, F)), rim, corners)
+
+
+def snap_corners(dd: DomainDisk, angles: np.ndarray) -> tuple[DomainDisk, float]:
+    """Step 5: the domain's rim moved along the circle so that each corner lands on the
+    nearest of ``angles`` (the cloud's rim points on the circle), piecewise linearly in angle
+    between corners; the interior harmonic again (cotangent weights).
+
+    A conformal map sends a corner of the domain to one point of the circle and shrinks its
+    surroundings to nothing, so without this the mapped surface cuts each corner where its
+    nearest rim point falls (three peaks onto the square: 0.084 from the corner). Returns the
+    moved map and the largest move (radians).
+    """
+    import igl
+
+    from ._sparse import spd_factor
+
+    if not len(dd.corners) or not len(angles):
+        return dd, 0.0
+    theta = np.arctan2(dd.D[dd.rim, 1], dd.D[dd.rim, 0])
+    position = np.empty(len(dd.V), dtype=np.int64)
+    position[dd.rim] = np.arange(len(dd.rim))
+    beta = theta[position[dd.corners]]
+    alpha = np.unique(np.mod(angles, 2 * np.pi))
+    # Each corner, in circular order from the first rim point, to the nearest rim point not
+    # taken by the corner before it: two corners close together (a wheel arch) never share
+    # one, and the order is kept.
+    x = alpha[0] + np.mod(beta - alpha[0], 2 * np.pi)
+    order = np.argsort(x)
+    nearest = np.round(np.interp(x[order], np.append(alpha, alpha[0] + 2 * np.pi),
+                                 np.arange(len(alpha) + 1))).astype(np.int64)
+    if len(alpha) >= len(beta):
+        offset = np.maximum.accumulate(nearest - np.arange(len(nearest)))
+        nearest = offset + np.arange(len(nearest))
+    delta = np.zeros(len(beta))
+    delta[order] = np.angle(np.exp(1j * (alpha[nearest % len(alpha)] - beta[order])))
+    order = np.argsort(beta)
+    shift = np.interp(theta, beta[order], delta[order], period=2 * np.pi)
+    circle = np.column_stack([np.cos(theta + shift), np.sin(theta + shift)])
+    n = len(dd.V)
+    inner = np.setdiff1d(np.arange(n), dd.rim)
+    L = (-igl.cotmatrix(np.column_stack([dd.V, np.zeros(n)]), dd.F)).tocsr()
+    D = np.zeros((n, 2))
+    D[dd.rim] = circle
+    D[inner] = spd_factor(L[inner][:, inner])(np.asarray(-(L[inner][:, dd.rim] @ circle)))
+    return DomainDisk(dd.V, dd.F, D, dd.rim, dd.corners), float(np.abs(delta).max())
+
+
+def _signed_area(P: np.ndarray) -> float:
+    x, y = P[:, 0], P[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def _tri_areas(P: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Unsigned areas of the triangles ``F`` of the points ``P`` (2D or 3D)."""
+    e1, e2 = P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]
+    if P.shape[1] == 2:
+        return 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    return 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+
+
+def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: Domain, *,
+                 landmarks=(), seed: int = 0) -> tuple[np.ndarray, dict]:
+    """Map the cloud onto a simply connected domain by composing its disk map with the
+    domain's inverse Riemann map (steps 1-4 of the module).
+
+    Parameters
+    ----------
+    X : (N, 3) float64
+        The normalized points.
+    faces : (M, 3) int64
+        Their local mesh's triangles (to weigh the rotations by the area they stretch).
+    disk_uv : (N, 2) float64
+        The cloud's map onto the unit disk (:func:`pcgeom.maps.disk.conformal_disk`).
+    domain : Domain
+        Bounded, one boundary loop.
+    landmarks : sequence of ((n_k,) int, (m_k, 2) float64)
+        Rows of ``X`` standing for each landmark set, and its targets: they help choose the
+        rotation.
+
+    Returns
+    -------
+    U : (N, 2) float64
+    info : dict
+        ``rotation_deg``, ``mirror``, ``domain_mesh_vertices``, ``area_spread`` (the
+        area-weighted standard deviation of the log area ratio of the local mesh's
+        triangles, the criterion of step 3 without the landmarks).
+    """
+    from scipy.spatial import cKDTree
+
+    dd = domain_disk(domain, seed=seed)
+    rng = np.random.default_rng(seed)
+    if len(faces) > _SCORE_FACES:
+        faces = faces[np.sort(rng.choice(len(faces), _SCORE_FACES, replace=False))]
+    area3 = _tri_areas(X, faces)
+    weight = area3 / max(area3.sum(), 1e-300)
+    # Only the judging triangles' corners are mapped for each candidate.
+    used = np.unique(faces)
+    z0 = disk_uv[:, 0] + 1j * disk_uv[:, 1]
+    marks = [(np.asarray(i, dtype=np.int64), np.asarray(q, dtype=np.float64),
+              cKDTree(np.asarray(q, dtype=np.float64))) for i, q in landmarks]
+
+    def image(theta: float, mirror: bool, rows: np.ndarray) -> np.ndarray:
+        z = np.conj(z0[rows]) if mirror else z0[rows]
+        z = z * np.exp(1j * theta)
+        return dd.inverse(np.column_stack([z.real, z.imag]))
+
+    def score(theta: float, mirror: bool) -> tuple[float, float]:
+        U = np.zeros((len(X), 2))
+        U[used] = image(theta, mirror, used)
+        ratio = np.log(np.maximum(_tri_areas(U, faces), 1e-300) / np.maximum(area3, 1e-300))
+        # Clipped: the corners of the domain shrink their triangles to nothing whatever the
+        # rotation, and would decide it alone.
+        mean = float((weight * ratio).sum())
+        ratio = np.clip(ratio, mean - 2.0, mean + 2.0)
+        mean = float((weight * ratio).sum())
+        spread = math.sqrt(float((weight * (ratio - mean) ** 2).sum()))
+        fit = 0.0
+        for index, targets, tree in marks:
+            P = image(theta, mirror, index)
+            fit += (float(np.mean(tree.query(P)[0] ** 2))
+                    + float(np.mean(cKDTree(P).query(targets)[0] ** 2))) / domain.area
+        return spread ** 2 + fit, spread
+
+    best = None
+    for mirror in (False, True):
+        for theta in 2 * np.pi * np.arange(ROTATIONS) / ROTATIONS:
+            total, spread = score(float(theta), mirror)
+            if best is None or total < best[0]:
+                best = (total, spread, float(theta), mirror)
+    _, spread, theta, mirror = best
+    # The cloud's rim points are those its disk map put on the circle.
+    on_rim = np.abs(z0) > 1.0 - 1e-9
+    rim_angles = np.angle((np.conj(z0[on_rim]) if mirror else z0[on_rim]) * np.exp(1j * theta))
+    dd, moved = snap_corners(dd, rim_angles)
+    U = image(theta, mirror, np.arange(len(X)))
+    info = {"rotation_deg": round(math.degrees(theta), 3), "mirror": mirror,
+            "domain_mesh_vertices": len(dd.V), "area_spread": round(spread, 4),
+            "corners": len(dd.corners), "corner_move_deg": round(math.degrees(moved), 4)}
+    return U, info
