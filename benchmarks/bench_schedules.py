@@ -31,7 +31,8 @@ from pcgeom.apps.evaluate import map_report  # noqa: E402
 from pcgeom.config import get_preset  # noqa: E402
 from pcgeom.examples import EXAMPLES, load_example  # noqa: E402
 from pcgeom.io import read_points  # noqa: E402
-from pcgeom.train import parametrize, resolve_device  # noqa: E402
+from pcgeom.maps import parametrize  # noqa: E402
+from pcgeom.train import resolve_device  # noqa: E402
 from sections import write_section  # noqa: E402
 
 DATA_DIR = REPO.parent / "shared" / "data"
