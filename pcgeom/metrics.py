@@ -12,8 +12,8 @@ import numpy as np
 
 from .cloud import validate_faces
 
-__all__ = ["angle_distortion", "AngleReport", "hausdorff", "domain_hausdorff",
-           "surface_hausdorff"]
+__all__ = ["angle_distortion", "AngleReport", "flip_locations", "flipped_mask", "hausdorff",
+           "domain_hausdorff", "surface_hausdorff"]
 
 
 @dataclass(frozen=True)
@@ -28,6 +28,9 @@ class AngleReport:
     """Number of triangles M."""
     per_corner: np.ndarray
     """(M, 3) absolute angle differences."""
+    where: dict | None = None
+    """Where the flipped triangles are (:func:`flip_locations`): ``rim``, ``hole``,
+    ``inside`` counts."""
 
     # The order statistics are read from per_corner, so they can never disagree with it.
     @property
@@ -76,7 +79,8 @@ def angle_distortion(V, F, U) -> AngleReport:
 
     A triangle is flipped when the sign of its signed area in the map differs from the
     majority sign (so a mirrored map has no flips); triangles of zero signed area count as
-    flipped. ``flipped = min(#positive, #negative) + #zero``.
+    flipped. ``flipped = min(#positive, #negative) + #zero``; :func:`flip_locations` says
+    where they are.
 
     A corner at a zero-length edge has no angle (libigl gives NaN): where two vertices of a
     triangle coincide (two points of the cloud mapped to one, or a degenerate reference
@@ -95,7 +99,8 @@ def angle_distortion(V, F, U) -> AngleReport:
     Returns
     -------
     AngleReport
-        ``mean_abs`` (radians), ``flipped``, ``n_faces`` and ``per_corner`` (M, 3); its
+        ``mean_abs`` (radians), ``flipped``, ``n_faces``, ``per_corner`` (M, 3) and ``where``
+        (:func:`flip_locations`); its
         ``median_abs``, ``p95_abs`` and ``max_abs`` are order statistics of ``per_corner``.
 
     Raises
@@ -122,9 +127,63 @@ def angle_distortion(V, F, U) -> AngleReport:
     e1 = U[F[:, 1]] - U[F[:, 0]]  # (M, 2)
     e2 = U[F[:, 2]] - U[F[:, 0]]
     signed = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]  # (M,) twice the signed area
-    pos, neg = int((signed > 0).sum()), int((signed < 0).sum())
-    flipped = min(pos, neg) + int((signed == 0).sum())
-    return AngleReport(float(diff.mean()), flipped, len(F), diff)
+    mask = flipped_mask(signed)
+    return AngleReport(float(diff.mean()), int(mask.sum()), len(F), diff,
+                       flip_locations(V, F, mask))
+
+
+def flipped_mask(signed: np.ndarray) -> np.ndarray:
+    """(M,) bool: the triangles whose signed area ``signed`` (M,) has the minority sign, or
+    is zero (:func:`angle_distortion`'s flips; a mirrored map has none)."""
+    minority = -1.0 if (signed > 0).sum() >= (signed < 0).sum() else 1.0
+    return (np.sign(signed) == minority) | (signed == 0)
+
+
+def flip_locations(V, F, flipped: np.ndarray, rings: int = 2) -> dict[str, int]:
+    """Where the ``flipped`` (M,) bool triangles of the mesh ``(V, F)`` are, so a user sees at
+    once whether a map is usable: folds at the rim trim the surface's edge, folds inside tear
+    its middle.
+
+    A flipped triangle is on the ``rim`` when one of its corners is at most ``rings`` edges
+    from the outer boundary loop (the longest loop in 3D), ``hole`` when it is that close to
+    another boundary loop, else ``inside``.
+
+    Returns
+    -------
+    dict
+        ``{"rim": int, "hole": int, "inside": int}``, summing to ``flipped.sum()``.
+    """
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    V, F = np.asarray(V, dtype=np.float64), np.asarray(F, dtype=np.int64)
+    flipped = np.asarray(flipped, dtype=bool)
+    out = {"rim": 0, "hole": 0, "inside": int(flipped.sum())}
+    if not flipped.any():
+        return out
+    n = len(V)
+    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    border = unique[counts == 1]  # (B, 2)
+    if not len(border):
+        return out
+    B = sp.coo_matrix((np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(n, n))
+    _, label = connected_components(B, directed=False)
+    length = np.bincount(label[border[:, 0]], np.linalg.norm(V[border[:, 1]] - V[border[:, 0]],
+                                                                axis=1), minlength=n)
+    outer = int(np.argmax(length))
+    on_border = np.zeros(n, dtype=bool)
+    on_border[border.ravel()] = True
+    A = sp.coo_matrix((np.ones(len(unique)), (unique[:, 0], unique[:, 1])), shape=(n, n))
+    A = (A + A.T + sp.identity(n)).tocsr()
+    near_rim = (on_border & (label == outer)).astype(np.float64)
+    near_hole = (on_border & (label != outer)).astype(np.float64)
+    for _ in range(rings):
+        near_rim, near_hole = A @ near_rim, A @ near_hole
+    tri = F[flipped]
+    rim = (near_rim[tri] > 0).any(axis=1)
+    hole = ~rim & (near_hole[tri] > 0).any(axis=1)
+    return {"rim": int(rim.sum()), "hole": int(hole.sum()), "inside": int((~rim & ~hole).sum())}
 
 
 def _defined(angles: np.ndarray) -> np.ndarray:

@@ -315,7 +315,7 @@ def test_mesh_input_json_ply_and_plot(tmp_path, capsys, tiny):
         expected = angle_distortion(V, F, z["uv"])
     ev = report["evaluation"]
     assert ev == {"mean_abs_angle_rad": expected.mean_abs, "flipped": expected.flipped,
-                  "n_faces": len(F)}
+                  "n_faces": len(F), "flipped_where": expected.where}
     assert (out_dir / "m.png").read_bytes()[:8] == PNG_SIGNATURE
 
 

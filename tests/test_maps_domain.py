@@ -141,3 +141,69 @@ def test_a_hole_much_smaller_than_its_domain_hole_is_warned_of():
     # points around the hole is inscribed in it, a little smaller (measured 0.0255).
     (ratio,) = info["hole_area_ratios"]
     assert 0.02 < ratio < 0.0303
+
+
+def _planar_annulus(r: float, n: int = 3000, seed: int = 0):
+    """Area-uniform points of the planar annulus ``r <= |x| <= 1`` (z = 0), both circles
+    sampled."""
+    rng = np.random.default_rng(seed)
+    rho = np.sqrt(rng.uniform(r * r, 1.0, n))
+    t = rng.uniform(0, 2 * np.pi, n)
+    k_out, k_in = 120, max(12, int(120 * r))
+    rim = np.concatenate([np.exp(2j * np.pi * np.arange(k_out) / k_out),
+                          r * np.exp(2j * np.pi * np.arange(k_in) / k_in)])
+    z = np.concatenate([rho * np.exp(1j * t), rim])
+    return np.column_stack([z.real, z.imag, np.zeros(len(z))])
+
+
+@pytest.mark.parametrize("r", [0.3, 0.55])
+def test_annulus_radius_is_the_modulus_of_a_planar_annulus(r):
+    """Analytic: the harmonic function between the circles of ``r <= |x| <= 1`` has energy
+    2 pi / log(1 / r), so the radius read back is r."""
+    from pcgeom.maps.domain import annulus_radius
+
+    X = _planar_annulus(r)
+    normals = np.tile([0.0, 0.0, 1.0], (len(X), 1))
+    mesh = local_mesh(X, normals, 24)
+    assert annulus_radius(X, mesh, lscm_free(X, mesh)) == pytest.approx(r, rel=0.03)
+
+
+def test_annulus_auto_is_resolved_from_the_cloud_and_recorded():
+    import dataclasses
+
+    from pcgeom import get_domain, parametrize
+    from pcgeom.config import get_preset
+
+    config = get_preset("fast")
+    config = dataclasses.replace(config, local_mesh=dataclasses.replace(
+        config.local_mesh, domain_refine=dataclasses.replace(config.local_mesh.domain_refine,
+                                                             steps=0)))
+    X = 2.0 * _planar_annulus(0.4, n=2000)
+    normals = np.tile([0.0, 0.0, 1.0], (len(X), 1))
+    result = parametrize(X, "annulus:auto", config=config, normals=normals, progress=False)
+    assert isinstance(result.domain, Annulus) and not result.domain.auto
+    assert result.domain.inner == pytest.approx(0.4, rel=0.03)
+    assert result.history[0]["auto_inner"] == pytest.approx(result.domain.inner, abs=1e-6)
+    assert get_domain(result.domain.spec) == result.domain  # the results file names it
+    from pcgeom.examples import peaks_surface
+
+    V, _ = peaks_surface("peaks3", n_side=30)  # a disk: no hole to measure
+    with pytest.raises(InputError, match="annulus:auto needs a surface with a hole"):
+        parametrize(V, "annulus:auto", config=config, progress=False)
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("disk:auto", r"domain 'disk:auto': only annulus takes 'auto' \(its inner radius from the "
+                  r"surface\)"),
+    ("annulus:auto,x", r"domain 'annulus:auto,x': expected numbers after 'annulus:auto,'"),
+    ("annulus:auto,1,2", r"domain 'annulus:auto,1,2': annulus:auto takes at most outer; got 2 "
+                         r"value\(s\)"),
+])
+def test_bad_auto_specs_are_refused_in_one_line(spec, message):
+    from pcgeom import get_domain
+
+    with pytest.raises(InputError, match=message):
+        get_domain(spec)
+    auto = get_domain("annulus:auto,2")
+    assert auto.auto and auto.outer == 2.0 and auto.spec == "annulus:auto,2.0"
+    assert get_domain(auto.spec) == auto and get_domain(auto.to_dict()) == auto

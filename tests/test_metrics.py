@@ -337,3 +337,37 @@ def test_surface_hausdorff_errors():
         surface_hausdorff(U, np.zeros((0, 3), int), Square())
     with pytest.raises(ValueError, match=r"U: expected shape \(N, 2\), got \(9, 3\)"):
         surface_hausdorff(np.zeros((9, 3)), F, Square())
+
+
+def test_flip_locations_tell_the_rim_from_a_hole_and_the_inside():
+    """A 20 x 20 grid with a square hole in the middle: one triangle turned over at the rim,
+    one beside the hole, one in between; each is counted where it is."""
+    from pcgeom.metrics import angle_distortion, flip_locations
+
+    n = 21
+    x, y = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float))
+    V = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
+    F = []
+    for i in range(n - 1):
+        for j in range(n - 1):
+            if 9 <= i <= 10 and 9 <= j <= 10:
+                continue  # the hole: cells (9..10, 9..10)
+            a = i * n + j
+            F += [[a, a + 1, a + n + 1], [a, a + n + 1, a + n]]
+    F = np.array(F)
+    U = V[:, :2].copy()
+
+    def cell(i, j):
+        return next(k for k, f in enumerate(F) if f[0] == i * n + j)
+
+    flipped = np.zeros(len(F), dtype=bool)
+    flipped[[cell(0, 3), cell(8, 9), cell(5, 5)]] = True
+    assert flip_locations(V, F, flipped) == {"rim": 1, "hole": 1, "inside": 1}
+    assert flip_locations(V, F, np.zeros(len(F), dtype=bool)) == {"rim": 0, "hole": 0,
+                                                                  "inside": 0}
+    # angle_distortion reports the same places for a map that really turns them over.
+    k = cell(5, 5)
+    U[F[k, 0]] = U[F[k, 1]] + U[F[k, 2]] - U[F[k, 0]] + 0.0  # reflect a corner across its edge
+    report = angle_distortion(V, F, U)
+    assert report.flipped >= 1
+    assert report.where == {"rim": 0, "hole": 0, "inside": report.flipped}

@@ -65,3 +65,32 @@ def test_param_into_a_log_leaves_a_few_lines(tmp_path, capsys):
     assert 1 <= len(err) <= 4, err
     assert err[0] == "pcgeom: 5776 points onto disk: the disk map"
     assert all(line.startswith("pcgeom: ") and "\r" not in line for line in err)
+
+
+def test_a_map_that_flips_gets_a_warning_line_with_the_count_and_where(tmp_path, capsys,
+                                                                        monkeypatch):
+    """Both measures: the cloud's local mesh (parametrize warns, any caller sees it) and the
+    input's own triangles (pcgeom param, when the input has faces)."""
+    pytest.importorskip("igl")
+    import pcgeom.apps.evaluate as evaluate
+    import pcgeom.cli.param as param_cli
+    import pcgeom.maps.free as free
+
+    monkeypatch.setattr(free, "mesh_flips", lambda X, mesh, U: {
+        "count": 5, "faces": 100, "rim": 3, "hole": 0, "inside": 2})
+    real = evaluate.map_report
+
+    def flipped_report(*args, **kwargs):
+        report = real(*args, **kwargs)
+        return report | {"flipped": 7, "flipped_percent": 0.06,
+                         "flipped_where": {"rim": 1, "hole": 2, "inside": 4}}
+
+    monkeypatch.setattr(param_cli, "map_report", flipped_report)
+    assert cli.main(["param", "--example", "peaks3", "--quiet", "--out",
+                     str(tmp_path / "p.npz")]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        "pcgeom: warning: the map turns over 5 of the 100 triangles of the cloud's local mesh "
+        "(5.00%: 3 on the rim, 0 near holes, 2 inside)",
+        "pcgeom: warning: the map turns over 7 of the input's 11250 triangles (0.06%): 1 on the "
+        "rim, 2 near holes, 4 inside"]

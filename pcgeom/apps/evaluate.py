@@ -25,7 +25,7 @@ __all__ = ["map_report", "angle_figures", "landmark_hausdorff", "EVALUATION_BASE
            "vertex_angle_distortion", "PLOT_FILES", "plot_evaluation", "plot_angle_histograms"]
 
 ANGLE_KEYS = ("mean_abs_angle_rad", "median_abs_angle_rad", "p95_abs_angle_rad",
-              "max_abs_angle_rad", "flipped", "n_faces", "flipped_percent")
+              "max_abs_angle_rad", "flipped", "n_faces", "flipped_percent", "flipped_where")
 """The keys of :func:`angle_figures`, in report order."""
 
 EVALUATION_BASELINES = ("lscm", "harmonic_disk")
@@ -40,14 +40,17 @@ PLOT_FILES = {"angles": "angle_histogram.png", "map": "map_angle_distortion.png"
 def angle_figures(angles: AngleReport | None) -> dict:
     """The angle keys of a report (:data:`ANGLE_KEYS`): mean, median, 95th percentile and
     maximum absolute angle distortion over all triangle corners (radians, see
-    :class:`pcgeom.metrics.AngleReport`), flipped triangles, their count and percentage.
+    :class:`pcgeom.metrics.AngleReport`), flipped triangles, their count and percentage, and
+    where they are (``flipped_where``: ``rim``, ``hole``, ``inside``,
+    :func:`pcgeom.metrics.flip_locations`).
     All None when ``angles`` is None (no reference faces)."""
     if angles is None:
         return dict.fromkeys(ANGLE_KEYS)
     return {"mean_abs_angle_rad": angles.mean_abs, "median_abs_angle_rad": angles.median_abs,
             "p95_abs_angle_rad": angles.p95_abs, "max_abs_angle_rad": angles.max_abs,
             "flipped": angles.flipped, "n_faces": angles.n_faces,
-            "flipped_percent": 100.0 * angles.flipped / angles.n_faces}
+            "flipped_percent": 100.0 * angles.flipped / angles.n_faces,
+            "flipped_where": angles.where}
 
 
 def landmark_hausdorff(history) -> list[float] | None:

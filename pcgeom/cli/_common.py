@@ -13,7 +13,7 @@ from ..errors import InputError
 
 __all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "int_at_least",
            "seed", "distinct_paths", "add_cloud_and_map", "load_free_map", "print_angles",
-           "add_command", "standalone_parser", "run_command"]
+           "flip_places", "add_command", "standalone_parser", "run_command"]
 
 EXIT_OK = 0
 EXIT_FAILURE = 1  # the run itself failed (I/O error, missing optional dependency)
@@ -114,7 +114,15 @@ def print_angles(report: dict) -> None:
     """The human line for a map's angle distortion (``map_report`` keys)."""
     print(f"angle distortion: mean {report['mean_abs_angle_rad']:.4f} rad over "
           f"{report['n_faces']} triangles, {report['flipped']} flipped "
-          f"({report['flipped_percent']:.2f}%)")
+          f"({report['flipped_percent']:.2f}%){flip_places(report.get('flipped_where'))}")
+
+
+def flip_places(where: dict | None) -> str:
+    """``": 3 on the rim, 1 near holes, 0 inside"``, or nothing without flips."""
+    if not where or not sum(where.values()):
+        return ""
+    return (f": {where['rim']} on the rim, {where['hole']} near holes, "
+            f"{where['inside']} inside")
 
 
 def print_domain_fit(report: dict, label: str | None) -> None:

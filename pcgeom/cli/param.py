@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +25,8 @@ from ..examples import EXAMPLES, load_example
 from ..io import check_writable, read_landmarks, read_points, write_ply_atomic
 from ..maps import parametrize
 from ..train import LOSS_TERMS, resolve_device
-from ._common import (EXIT_OK, distinct_paths, int_at_least, print_angles, print_domain_fit,
-                      run_command, seed, standalone_parser)
+from ._common import (EXIT_OK, distinct_paths, flip_places, int_at_least, print_angles,
+                      print_domain_fit, run_command, seed, standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -177,7 +178,12 @@ def run(args) -> int:
     final = result.history[-1] if result.history else {}
     evaluation = None
     if faces is not None:
-        evaluation = {k: report[k] for k in ("mean_abs_angle_rad", "flipped", "n_faces")}
+        evaluation = {k: report[k] for k in ("mean_abs_angle_rad", "flipped", "n_faces",
+                                             "flipped_where")}
+        if report["flipped"]:
+            warnings.warn(f"the map turns over {report['flipped']} of the input's "
+                          f"{report['n_faces']} triangles ({report['flipped_percent']:.2f}%)"
+                          + flip_places(report["flipped_where"]))
     summary = {
         "command": "param",
         "input": name,

@@ -39,7 +39,8 @@ def get_domain(spec) -> Domain:
     ----------
     spec : str, dict or Domain
         ``"name"`` (default parameters), ``"name:v1,v2"`` (numbers for the class's
-        ``spec_args``, e.g. ``"disk:0.5"``), a path ending in ``.json`` (a polygon file, read
+        ``spec_args``, e.g. ``"disk:0.5"``; ``"annulus:auto"``: the inner radius from the
+        surface, see :attr:`Annulus.auto`), a path ending in ``.json`` (a polygon file, read
         by :meth:`PolygonDomain.from_json`) or in an image suffix of :data:`MASK_SUFFIXES`
         (a binary mask, :meth:`PolygonDomain.from_mask`), ``{"name": ..., **parameters}`` as
         written by :meth:`Domain.to_dict` (or its JSON text, as :attr:`Domain.spec` gives it),
@@ -69,6 +70,8 @@ def get_domain(spec) -> Domain:
         name, _, args = spec.partition(":")
         cls = _lookup(name)
         values = [a.strip() for a in args.split(",")] if args else []
+        if values and values[0].lower() == "auto":
+            return _auto(cls, values[1:], spec)
         if len(values) > len(cls.spec_args):
             takes = ", ".join(cls.spec_args) if cls.spec_args else "no values"
             raise InputError(f"domain {spec!r}: {name} takes {takes}; got {len(values)} value(s)")
@@ -91,6 +94,22 @@ def get_domain(spec) -> Domain:
         return _build(cls, params, cls.name)
     raise TypeError(f"domain: expected a name, a dict or a Domain, got {type(spec).__name__}"
                     + (" (the free boundary is 'free')" if spec is None else ""))
+
+
+def _auto(cls: type[Domain], rest: list[str], spec: str) -> Domain:
+    """``"annulus:auto[,outer]"``: a domain whose first parameter the cloud decides."""
+    if "auto" not in {f.name for f in dataclasses.fields(cls)}:
+        raise InputError(f"domain {spec!r}: only annulus takes 'auto' (its inner radius from "
+                         "the surface)")
+    if len(rest) > len(cls.spec_args) - 1:
+        raise InputError(f"domain {spec!r}: {cls.name}:auto takes at most "
+                         f"{', '.join(cls.spec_args[1:])}; got {len(rest)} value(s)")
+    try:
+        params = {key: float(v) for key, v in zip(cls.spec_args[1:], rest)}
+    except ValueError:
+        raise InputError(f"domain {spec!r}: expected numbers after '{cls.name}:auto,'") from None
+    placeholder = 0.5 * params.get("outer", 1.0)
+    return _build(cls, {cls.spec_args[0]: placeholder, **params, "auto": True}, spec)
 
 
 def _lookup(name) -> type[Domain]:

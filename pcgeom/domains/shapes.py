@@ -95,13 +95,31 @@ class Annulus(ShapelyDomain):
     """Inner radius, 0 < inner < outer."""
     outer: float = 1.0
     """Outer radius."""
+    auto: bool = False
+    """``annulus:auto`` (``annulus:auto,OUTER``): the inner radius is the surface's own
+    conformal modulus, so that a surface with one hole maps onto it conformally;
+    :func:`pcgeom.parametrize` measures it on the cloud
+    (:func:`pcgeom.maps.domain.annulus_radius`) and maps onto that annulus, which its result
+    records. Until then ``inner`` holds a placeholder (half of ``outer``)."""
 
     name: ClassVar[str] = "annulus"
     spec_args: ClassVar[tuple[str, ...]] = ("inner", "outer")
 
+    @property
+    def spec(self) -> str:
+        if self.auto:
+            return "annulus:auto" + ("" if self.outer == 1.0 else f",{float(self.outer)!r}")
+        return super().spec
+
+    def with_inner(self, inner: float) -> "Annulus":
+        """The concrete annulus of inner radius ``inner`` (``auto`` resolved)."""
+        return Annulus(inner=float(inner), outer=self.outer)
+
     def __post_init__(self) -> None:
         _positive("inner", self.inner)
         _positive("outer", self.outer)
+        if not isinstance(self.auto, bool):
+            raise ValueError(f"auto: expected true or false, got {self.auto!r}")
         if self.inner >= self.outer:
             raise ValueError(f"inner: expected a radius below outer = {self.outer!r}, "
                              f"got {self.inner!r}")

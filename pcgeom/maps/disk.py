@@ -13,7 +13,7 @@ from ..errors import InputError
 from ._sparse import spd_factor
 from .free import conformal_factor, free_start
 from .localmesh import (LocalMesh, _boundary_loops, _edge_sides, _interpolate_rest, _main_part,
-                        _signed_area, _submesh, _vertex_manifold)
+                        _signed_area, _submesh, _vertex_manifold, mesh_flips)
 
 __all__ = ["conformal_disk", "disk_map", "RIM_ANGLE"]
 
@@ -204,5 +204,6 @@ def disk_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, do
     t0 = time.perf_counter()
     uv, mesh, _, record = free_start(Xn, normals, config, progress=progress)
     uv = np.asarray(domain.center) + domain.radius * conformal_disk(Xn, mesh, uv)
-    record.update(onto=domain.spec, seconds=time.perf_counter() - t0)
+    record.update(onto=domain.spec, flips=mesh_flips(Xn, mesh, uv),
+                  seconds=time.perf_counter() - t0)
     return uv, conformal_factor(Xn, uv), record

@@ -57,11 +57,11 @@ from ._sparse import spd_factor
 from .disk import conformal_disk
 from .free import conformal_factor, free_start
 from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part,
-                        _signed_area, _submesh, _vertex_manifold)
+                        _signed_area, _submesh, _vertex_manifold, mesh_flips)
 from .refine import refine
 from .riemann import riemann_onto, simply_connected
 
-__all__ = ["domain_map", "harmonic_onto", "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS",
+__all__ = ["domain_map", "annulus_radius", "resolve_domain", "harmonic_onto", "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS",
            "MIN_HOLE_RATIO"]
 
 ROTATIONS = 72
@@ -365,9 +365,62 @@ def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: D
     return _interpolate_rest(X, U, known), info
 
 
+def annulus_radius(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> float:
+    """The inner radius of the annulus (outer radius 1) conformally equivalent to the local
+    mesh with its outer loop and its largest hole: ``exp(-2 pi / E)``.
+
+    ``E`` is the Dirichlet energy of the harmonic function ``h``, 0 on the outer loop and 1 on
+    the hole (other holes free), with libigl's cotangent matrix ``C``: ``E = -h^T C h``. On the
+    annulus ``r < |z| < 1``, ``h = log|z| / log r`` has energy ``2 pi / log(1/r)``, and the
+    energy is a conformal invariant.
+
+    Raises
+    ------
+    InputError
+        The mesh has no hole.
+    """
+    import igl
+
+    faces = _vertex_manifold(mesh.faces)
+    main, V, F = _submesh(X, faces, _main_part(faces, len(X)))
+    P = free_uv[main]
+    loops = sorted((np.asarray(loop, dtype=np.int64) for loop in _boundary_loops(F)),
+                   key=lambda loop: -abs(_signed_area(P[loop])))
+    if len(loops) < 2:
+        raise InputError("annulus:auto needs a surface with a hole, and the cloud's local mesh "
+                         "has none; give the inner radius (annulus:R)")
+    outer, hole = loops[0], loops[1]
+    C = igl.cotmatrix(V, F).tocsr()
+    fixed = np.concatenate([outer, hole])
+    values = np.concatenate([np.zeros(len(outer)), np.ones(len(hole))])
+    free = np.setdiff1d(np.arange(len(V)), fixed)
+    h = np.zeros(len(V))
+    h[fixed] = values
+    if len(free):
+        L = -C
+        h[free] = spd_factor(L[free][:, free])(np.asarray(-(L[free][:, fixed] @ values)))
+    energy = float(-h @ (C @ h))
+    if not np.isfinite(energy) or energy <= 0:
+        raise InputError("the local mesh of the cloud is degenerate (no harmonic function "
+                         "between its rim and its hole); give the inner radius (annulus:R)")
+    return math.exp(-2.0 * math.pi / energy)
+
+
+def resolve_domain(domain: Domain, X: np.ndarray, start) -> tuple[Domain, dict]:
+    """``domain`` with what the cloud decides filled in (``annulus:auto``: the inner radius,
+    :func:`annulus_radius`), and what was decided (for the history). ``start`` is
+    :func:`pcgeom.maps.free.free_start`'s result."""
+    if not getattr(domain, "auto", False):
+        return domain, {}
+    uv, mesh, _, _ = start
+    r = annulus_radius(X, mesh, uv)
+    return domain.with_inner(r * domain.outer), {"auto_inner": round(r * domain.outer, 6)}
+
+
 def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
                domain: Domain, data: TrainData, objective: Objective, *,
-               progress: bool, on_stage=None) -> tuple[torch.Tensor, torch.Tensor, list[dict]]:
+               progress: bool, on_stage=None, start=None
+               ) -> tuple[torch.Tensor, torch.Tensor, list[dict]]:
     """The local mesh laid on a bounded domain, holes on holes, then refined.
 
     :func:`harmonic_onto` gives the first map, or for a disk the conformal disk map turned by
@@ -387,6 +440,8 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
         The run's objective (its weights and landmark targets).
     on_stage : callable, optional
         Called with each history record and the map after it, (N, 2) float64.
+    start : tuple, optional
+        :func:`pcgeom.maps.free.free_start`'s result when the run has it already.
 
     Returns
     -------
@@ -397,12 +452,15 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
         holes of the mesh and of the domain, how many were paired, the alignment's ``mirror``
         and ``rotation_deg``, and, when there are landmarks, the landmark HAND term
         ``landmarks`` at the refinement's alpha and ``landmark_hausdorff`` of the first map),
-        then the refinement's when it has steps.
+        then the refinement's when it has steps; each with ``flips``, the local mesh's
+        triangles its map turns over (:func:`pcgeom.maps.localmesh.mesh_flips`).
     """
     from scipy.spatial import cKDTree
 
     t0 = time.perf_counter()
-    uv, mesh, normals, record = free_start(Xn, normals, config, progress=progress)
+    if start is None:
+        start = free_start(Xn, normals, config, progress=progress)
+    uv, mesh, normals, record = start
     tree = cKDTree(Xn)
     # Each landmark point acts through its nearest cloud point, as in the refinement.
     marks = [(tree.query(p.cpu().double().numpy())[1], q.cpu().double().numpy())
@@ -426,6 +484,7 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
     else:
         U0, info = harmonic_onto(Xn, mesh, uv, domain, landmarks=marks)
     record.update(onto=domain.spec, method=method, **info)
+    record["flips"] = mesh_flips(Xn, mesh, U0)
     if marks:
         # The landmark term as the refinement will weigh it (its alpha), and the exact fit.
         with torch.no_grad():
@@ -442,6 +501,7 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
     if refine_config.steps > 0:
         U, lam_inv, refined = refine(data, Xn, (U, lam_inv), objective, refine_config,
                                      normals=normals, progress=progress)
+        refined["flips"] = mesh_flips(Xn, mesh, U.detach().cpu().double().numpy())
         records.append(refined)
         if on_stage is not None:
             on_stage(refined, U.cpu().double().numpy())

@@ -31,7 +31,7 @@ from ..errors import InputError
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
 from ._sparse import spd_factor
-from .localmesh import LocalMesh, _interpolate_rest, _submesh, mesh_cloud
+from .localmesh import LocalMesh, _interpolate_rest, _submesh, mesh_cloud, mesh_flips
 from .refine import refine
 
 __all__ = ["lscm_free", "conformal_factor", "free_map", "free_start"]
@@ -137,8 +137,9 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
     uv : (N, 2) float64
     lam_inv : (N,) float64
     record : dict
-        The history record (:func:`pcgeom.maps.localmesh.mesh_cloud`'s, plus ``seconds``
-        and, when refined, ``refine_steps`` and the loss terms).
+        The history record (:func:`pcgeom.maps.localmesh.mesh_cloud`'s, plus ``seconds``,
+        ``flips`` (:func:`pcgeom.maps.localmesh.mesh_flips`) and, when refined,
+        ``refine_steps`` and the loss terms).
 
     Raises
     ------
@@ -147,7 +148,7 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
     """
     t0 = time.perf_counter()
     settings = config.local_mesh
-    uv, _, normals, record = free_start(Xn, normals, config, progress=progress)
+    uv, mesh, normals, record = free_start(Xn, normals, config, progress=progress)
     lam_inv = conformal_factor(Xn, uv)
     if settings.refine_steps > 0:
         gen = torch.Generator(device="cpu")
@@ -165,5 +166,6 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
         uv, lam_inv = U.cpu().double().numpy(), lam.cpu().double().numpy()
         record["refine_steps"] = settings.refine_steps
         record.update({k: refined[k] for k in LOSS_TERMS if k in refined})
+    record["flips"] = mesh_flips(Xn, mesh, uv)
     record["seconds"] = time.perf_counter() - t0
     return uv, lam_inv, record

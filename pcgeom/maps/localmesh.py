@@ -33,7 +33,7 @@ from ..errors import InputError
 from ..progress import Progress
 from .normals import orient_normals
 
-__all__ = ["LocalMesh", "local_mesh", "mesh_cloud", "CLOSED_SURFACE", "MIN_MESHED",
+__all__ = ["LocalMesh", "local_mesh", "mesh_cloud", "mesh_flips", "CLOSED_SURFACE", "MIN_MESHED",
            "NOT_A_SURFACE"]
 
 MIN_MESHED = 0.5
@@ -433,3 +433,17 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
               "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),
               "unmeshed": int((~mesh.main).sum())}
     return mesh, normals, record
+
+
+def mesh_flips(X: np.ndarray, mesh: LocalMesh, U: np.ndarray) -> dict:
+    """The triangles of the mesh's main part that the map ``U`` (N, 2) turns over, and where
+    (:func:`pcgeom.metrics.flip_locations`): ``{"count", "faces", "rim", "hole", "inside"}``.
+
+    Measured on the cloud's own mesh, as a run can (the reference mesh, when a user has one,
+    is what ``pcgeom evaluate`` measures)."""
+    from ..metrics import flip_locations, flipped_mask
+
+    F = mesh.faces[mesh.main[mesh.faces].all(axis=1)]
+    e1, e2 = U[F[:, 1]] - U[F[:, 0]], U[F[:, 2]] - U[F[:, 0]]
+    mask = flipped_mask(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    return {"count": int(mask.sum()), "faces": len(F), **flip_locations(X, F, mask)}

@@ -37,8 +37,8 @@ from ..train.device import resolve_device
 from ..train.objective import Objective
 from ..train.plan import stage_plan
 from .disk import disk_map
-from .domain import domain_map
-from .free import free_map
+from .domain import domain_map, resolve_domain
+from .free import free_map, free_start
 from .networks import build_networks, run_network_stage
 from .refine import refine
 
@@ -146,13 +146,19 @@ def parametrize(
         the network stages give LEG pairs whose normals disagree weight 0 (when
         ``config.schedule.drop_cross_sheet``, as in ``networks`` and ``fast``), and the
         refinement drops those pairs from its neighbour lists. Without them, the local-mesh
-        map estimates and orients normals (:mod:`pcgeom.maps.normals`), and the map may fold where
-        sheets touch.
+        map estimates and orients normals (:mod:`pcgeom.maps.normals`), and the map may fold
+        where sheets touch.
 
     Returns
     -------
     ParamResult
         With the domain, seed, version and input fingerprint it was made with.
+
+    Warns
+    -----
+    UserWarning
+        The map turns over triangles of the cloud's local mesh (the count and where: on the
+        rim, near holes, inside; the history's ``flips``).
     """
     t_start = time.perf_counter()
     config = config if config is not None else get_preset("fast")
@@ -175,7 +181,9 @@ def parametrize(
     log(f"{len(P)} points onto {domain.label}: the {kind} map", enabled=progress)
 
     def result(uv, lam_inv, history) -> ParamResult:
-        """The run's result, rows back in the input's order (duplicates included)."""
+        """The run's result, rows back in the input's order (duplicates included); a warning
+        when the map turns over triangles of the cloud's local mesh."""
+        _warn_flips(history[-1].get("flips") if history else None)
         return ParamResult(
             uv=np.asarray(uv, dtype=np.float64)[inverse],
             lambda_inv=np.asarray(lam_inv, dtype=np.float64)[inverse],
@@ -197,6 +205,13 @@ def parametrize(
         uv, lam_inv, record = disk_map(Xn, normals, config, domain, progress=progress)
         report(record, uv)
         return result(uv, lam_inv, [record])
+    start, decided = None, {}
+    if kind == "domain" and getattr(domain, "auto", False):
+        # The domain depends on the surface: the local mesh first, then the domain's sample.
+        start = free_start(Xn, normals, config, progress=progress)
+        domain, decided = resolve_domain(domain, Xn, start)
+        start[3].update(decided)
+        log(f"{domain.label} (its inner radius from the surface)", enabled=progress)
     W = None
     if domain.bounded:
         W = torch.tensor(domain.sample(config.domain_samples, seed=seed), device=dev, dtype=dtype)
@@ -208,7 +223,7 @@ def parametrize(
     gen.manual_seed(seed)
     if kind == "domain":
         U, lam_inv, history = domain_map(Xn, normals, config, domain, data, objective,
-                                         progress=progress, on_stage=report)
+                                         progress=progress, on_stage=report, start=start)
         return result(_numpy(U), _numpy(lam_inv), history)
     stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
     nets = build_networks(config, Xn, domain, data)
@@ -255,6 +270,16 @@ def parametrize(
         history.append(record)
         report(record, U)
     return result(_numpy(U), _numpy(lam_inv), history)
+
+
+def _warn_flips(flips: dict | None) -> None:
+    if flips and flips["count"]:
+        import warnings
+
+        warnings.warn(f"the map turns over {flips['count']} of the {flips['faces']} triangles "
+                      f"of the cloud's local mesh ({100 * flips['count'] / flips['faces']:.2f}%: "
+                      f"{flips['rim']} on the rim, {flips['hole']} near holes, "
+                      f"{flips['inside']} inside)", stacklevel=3)
 
 
 def _numpy(A) -> np.ndarray:
