@@ -733,10 +733,11 @@ def test_the_local_mesh_laid_on_each_domain_fills_it(domain, one_thread):
     V = _patch_shaped_like(domain, n_side=40)
     res = parametrize(V, domain, config=_short_config("localmesh"), device="cpu", seed=0,
                       progress=False)
-    if res.history[0].get("method") == "riemann":
-        # A domain without holes gets the conformal composition, not a fill by HAND: the
-        # stretched patch's points thin out where the map shrinks it (0.19 from the square's
-        # corners), but the mapped surface fills the domain and stays inside it.
+    if res.history[0].get("method") in ("riemann", "injective"):
+        # A domain without holes gets the conformal composition, one with holes the
+        # injective map, not a fill by HAND: the stretched patch's points thin out where the
+        # map shrinks it (0.19 from the square's corners), but the mapped surface fills the
+        # domain and stays inside it, and every hole of the patch lies on its domain hole.
         from pcgeom.examples import peaks_surface
         from pcgeom.metrics import angle_distortion, surface_hausdorff
 
@@ -751,9 +752,16 @@ def test_the_local_mesh_laid_on_each_domain_fills_it(domain, one_thread):
         # the few rim points there). The grid's exactly collinear rows turn over 2 of 3042
         # triangles on the square, 2 of 1794 on the car (a 20k car shell with 11 holes:
         # 0.034%).
-        assert surface_hausdorff(res.uv, F, domain) < 0.07
+        # Onto the smile, 0.084: its eyes are holes of 3 and 4 grid points in this patch,
+        # which the local mesh closes in part; the true triangles leave gaps beside them.
+        assert surface_hausdorff(res.uv, F, domain) < (0.1 if domain.spec == "smile" else 0.07)
         assert angle_distortion(V, F, res.uv).flipped <= 0.002 * len(F)
         assert [r["stage"] for r in res.history] == ["localmesh"]
+        deep = [int(shapely.contains_xy(shapely.Polygon(r).buffer(-0.03), *res.uv.T).sum())
+                for r in domain.boundary_loops()[1:]]
+        # Measured [0, 1, 1] on the smile: a loop vertex of a 3-point eye released from its
+        # ring (its triangle would be flat there) sits 0.03-0.07 inside the eye.
+        assert max(deep, default=0) <= 1, deep
         return
     inside = domain.contains(res.uv).mean()
     fit = domain_hausdorff(res.uv, domain)

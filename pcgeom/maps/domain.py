@@ -56,13 +56,14 @@ from ..train.objective import Objective
 from ._sparse import spd_factor
 from .disk import conformal_disk
 from .free import conformal_factor, free_start
-from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part,
+from .injective import InjectiveConfig, injective_map
+from .localmesh import (LocalMesh, _boundary_loops, _face_keys, _interpolate_rest, _main_part,
                         _signed_area, _submesh, _vertex_manifold, mesh_flips)
 from .refine import refine
 from .riemann import riemann_onto, simply_connected
 
-__all__ = ["domain_map", "annulus_radius", "resolve_domain", "harmonic_onto", "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS",
-           "MIN_HOLE_RATIO"]
+__all__ = ["domain_map", "annulus_radius", "resolve_domain", "harmonic_onto", "injective_onto",
+           "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS", "MIN_HOLE_RATIO"]
 
 ROTATIONS = 72
 """Evenly spaced rotations tried by the alignment, besides each pairing's Procrustes one."""
@@ -292,6 +293,52 @@ def align_onto(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, domain: Domain, *
     return align(uv), _info(holes, rings, align)
 
 
+def _harmonic_layout(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: Domain,
+                     landmarks) -> tuple[np.ndarray, tuple, np.ndarray, list, dict]:
+    """Steps 1-4 on the cleaned mesh's main part: ``main`` (its rows of ``X``), ``(V, F)``,
+    the harmonic map ``D`` of its vertices, the paired ``(loop, ring)`` (each loop in its
+    ring's direction; the outer one first) and the record of :func:`harmonic_onto`."""
+    import igl
+
+    main, V, F, P, outer, holes, rings, align = _laid_out(X, mesh, free_uv, domain, landmarks)
+    Z = align(P)
+    ratios = _warn_unmatched_holes(Z, holes, rings, align, domain)
+    pairs = []
+    for loop, ring in [(outer, rings[0])] + [(holes[k], rings[1 + j])
+                                             for k, j in enumerate(align.pairing)]:
+        # Rings: outer counter-clockwise, holes clockwise; the loop must run the same way.
+        if (_signed_area(Z[loop]) > 0) != (_signed_area(ring[:-1]) > 0):
+            loop = loop[::-1]
+        pairs.append((loop, ring))
+    fixed_idx = np.concatenate([loop for loop, _ in pairs])
+    fixed_uv = np.vstack([_lay_on_ring(Z[loop], ring) for loop, ring in pairs])
+    n = len(V)
+    L = (-igl.cotmatrix(V, F)).tocsr()  # positive semi-definite
+    free = np.setdiff1d(np.arange(n), fixed_idx)
+    D = np.zeros((n, 2))
+    D[fixed_idx] = fixed_uv
+    if len(free):
+        D[free] = spd_factor(L[free][:, free])(np.asarray(-(L[free][:, fixed_idx] @ fixed_uv)))
+    if not np.isfinite(D).all():
+        raise InputError("the local mesh of the cloud is degenerate (no harmonic map onto the "
+                         "domain); try the 'networks' preset")
+    info = _info(holes, rings, align)
+    info["hole_area_ratios"] = [round(r, 4) for r in ratios]
+    # Which hole went where: the mesh's holes by decreasing area (their size in points).
+    info["holes_onto"] = [{"hole": k, "points": len(holes[k]), "domain_hole": j}
+                          for k, j in enumerate(align.pairing)]
+    return main, (V, F), D, pairs, info
+
+
+def _on_all_rows(X: np.ndarray, main: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """The map ``D`` of the rows ``main``, the other rows of ``X`` interpolated."""
+    U = np.full((len(X), 2), np.nan)
+    U[main] = D
+    known = np.zeros(len(X), dtype=bool)
+    known[main] = True
+    return _interpolate_rest(X, U, known)
+
+
 def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: Domain, *,
                   landmarks=()) -> tuple[np.ndarray, dict]:
     """Map the local mesh onto a bounded domain (steps 1-4 of the module).
@@ -317,7 +364,9 @@ def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: D
     info : dict
         ``mesh_holes`` (holes of the mesh), ``domain_holes``, ``paired`` (holes laid on a
         domain hole), ``mirror``, ``rotation_deg`` of the alignment, ``hole_area_ratios``
-        (each paired hole's area in the aligned free map over its domain hole's).
+        (each paired hole's area in the aligned free map over its domain hole's),
+        ``holes_onto`` (for each paired hole of the mesh, by decreasing area: its rank
+        ``hole``, its loop's ``points``, the ``domain_hole`` it lies on).
 
     Warns
     -----
@@ -330,39 +379,49 @@ def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: D
     InputError
         The domain has more than one region, or the mesh has no boundary loop.
     """
-    import igl
+    main, _, D, _, info = _harmonic_layout(X, mesh, free_uv, domain, landmarks)
+    return _on_all_rows(X, main, D), info
 
-    main, V, F, P, outer, holes, rings, align = _laid_out(X, mesh, free_uv, domain, landmarks)
-    Z = align(P)
-    ratios = _warn_unmatched_holes(Z, holes, rings, align, domain)
-    fixed, values = [], []
-    pairs = [(outer, rings[0])] + [(holes[k], rings[1 + j]) for k, j in enumerate(align.pairing)]
-    for loop, ring in pairs:
-        # Rings: outer counter-clockwise, holes clockwise; the loop must run the same way.
-        if (_signed_area(Z[loop]) > 0) != (_signed_area(ring[:-1]) > 0):
-            loop = loop[::-1]
-        fixed.append(loop)
-        values.append(_lay_on_ring(Z[loop], ring))
-    fixed_idx = np.concatenate(fixed)
-    fixed_uv = np.vstack(values)
-    n = len(V)
-    L = (-igl.cotmatrix(V, F)).tocsr()  # positive semi-definite
-    free = np.setdiff1d(np.arange(n), fixed_idx)
-    D = np.zeros((n, 2))
-    D[fixed_idx] = fixed_uv
-    if len(free):
-        D[free] = spd_factor(L[free][:, free])(np.asarray(-(L[free][:, fixed_idx] @ fixed_uv)))
-    if not np.isfinite(D).all():
-        raise InputError("the local mesh of the cloud is degenerate (no harmonic map onto the "
-                         "domain); try the 'networks' preset")
-    n_all = len(X)
-    U = np.full((n_all, 2), np.nan)
-    U[main] = D
-    known = np.zeros(n_all, dtype=bool)
-    known[main] = True
-    info = _info(holes, rings, align)
-    info["hole_area_ratios"] = [round(r, 4) for r in ratios]
-    return _interpolate_rest(X, U, known), info
+
+def injective_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: Domain, *,
+                   landmarks=(), config: InjectiveConfig = InjectiveConfig()
+                   ) -> tuple[np.ndarray, dict]:
+    """Map the local mesh onto a bounded domain with no triangle turned over: the harmonic
+    map of :func:`harmonic_onto` (which may fold where the domain is not convex), made a
+    bijection of low angle distortion by :func:`pcgeom.maps.injective.injective_map` (its
+    paired loops sliding on their rings, under a barrier on the triangles' areas).
+
+    Parameters and returns as :func:`harmonic_onto`; ``info`` has besides ``injective``: what
+    the cleaning dropped (``pinched``, ``peeled``, ``handles`` triangles), the start's
+    ``start`` method and ``flipped_start`` (folds of the harmonic map), ``released`` (loop
+    vertices left off their ring), ``iterations``, ``flipped`` (of the cleaned mesh: 0),
+    ``seconds``.
+
+    Raises
+    ------
+    InputError
+        As :func:`harmonic_onto`, or no flip-free map was found (the cleaned local mesh is
+        not a disk with holes).
+    """
+    main, (V, F), D, pairs, info = _harmonic_layout(X, mesh, free_uv, domain, landmarks)
+    try:
+        U, inj = injective_map(V, F, D, [loop for loop, _ in pairs],
+                               [ring for _, ring in pairs], config=config)
+    except ValueError as err:
+        raise InputError(f"no map onto {domain.label} without folds ({err}); try "
+                         "--preset networks") from err
+    info["injective"] = {key: inj[key] for key in
+                         ("pinched", "peeled", "handles", "flipped_start", "released",
+                          "iterations", "flipped", "seconds")}
+    info["injective"]["start"] = inj["start"]["method"]
+    # The local mesh's triangles the cleaning set aside (rows of X), for mesh_flips.
+    info["dropped_faces"] = _dropped(mesh.faces, main[inj["faces"]], len(X))
+    return _on_all_rows(X, main, U), info
+
+
+def _dropped(faces: np.ndarray, kept: np.ndarray, n: int) -> np.ndarray:
+    """The triangles of ``faces`` not in ``kept`` (both rows of a cloud of ``n`` points)."""
+    return faces[~np.isin(_face_keys(faces, n), _face_keys(kept, n))]
 
 
 def annulus_radius(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> float:
@@ -481,10 +540,17 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
                                 landmarks=marks)
         method = "riemann"
         refine_config = dataclasses.replace(refine_config, steps=0)
+    elif config.local_mesh.domain_method == "injective" and not marks:
+        # The surface's holes slide onto the domain's under a barrier: no triangle turns
+        # over, and the refinement, which could fold it, does not run.
+        U0, info = injective_onto(Xn, mesh, uv, domain)
+        method = "injective"
+        refine_config = dataclasses.replace(refine_config, steps=0)
     else:
         U0, info = harmonic_onto(Xn, mesh, uv, domain, landmarks=marks)
+    dropped = info.pop("dropped_faces", None)
     record.update(onto=domain.spec, method=method, **info)
-    record["flips"] = mesh_flips(Xn, mesh, U0)
+    record["flips"] = mesh_flips(Xn, mesh, U0, dropped)
     if marks:
         # The landmark term as the refinement will weigh it (its alpha), and the exact fit.
         with torch.no_grad():

@@ -261,6 +261,13 @@ def signed_areas(U, F) -> np.ndarray:
     return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
 
 
+def _not_positive(U: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Mask of the triangles folded or flat in ``U``: signed area at most ``1e-9`` of their
+    longest edge squared (collinear corners, up to rounding)."""
+    e = np.stack([U[F[:, 1]] - U[F[:, 0]], U[F[:, 2]] - U[F[:, 1]], U[F[:, 0]] - U[F[:, 2]]])
+    return signed_areas(U, F) <= 1e-9 * (e ** 2).sum(axis=2).max(axis=0)
+
+
 def flipped(U, F) -> int:
     """Triangles of ``U[F]`` whose signed area is ``<= 0`` (faces counter-clockwise in a
     correct map).
@@ -707,7 +714,7 @@ class _Rings:
 
     def in_order(self, k: int, t: np.ndarray) -> bool:
         """The loop's vertices strictly increase along the ring and stay within one turn."""
-        return bool((np.diff(t) > 0).all() and t[-1] - t[0] < self.length[k])
+        return not len(t) or bool((np.diff(t) > 0).all() and t[-1] - t[0] < self.length[k])
 
 
 class _Layout:
@@ -1282,7 +1289,8 @@ def injective_map(V, F, U0, loops, rings, *, config: InjectiveConfig = Injective
         ``energy_end`` (per area), ``iterations``, ``evaluations``, ``steps_cut`` (steps the
         feasible step shortened), ``min_det``, ``min_area``, ``flipped`` (0: the cleaned
         mesh), ``in_order``, ``history`` (energy every 10 steps); ``flipped_all`` (on every
-        triangle of ``F``, dropped ones included), ``free_loops_simple``, ``seconds``.
+        triangle of ``F``, dropped ones included), ``faces`` (the cleaned mesh's triangles,
+        every one positive in ``U``), ``free_loops_simple``, ``seconds``.
 
     Raises
     ------
@@ -1356,10 +1364,23 @@ def injective_map(V, F, U0, loops, rings, *, config: InjectiveConfig = Injective
                  **pulled}
 
     # Step 4: the loop vertices onto their rings where nothing folds, then the barrier.
-    moved = _snap(F, U, index, _ring_points(slide, U))
+    t_all = [slide._project(slide.rings[k], slide.cum[k], U[loop])
+             for k, loop in enumerate(loops)]
+    moved = _snap(F, U, index, np.vstack([slide.positions(k, t)[0]
+                                          for k, t in enumerate(t_all)]))
     released = index[~moved]
-    sliding = [loop[~np.isin(loop, released) & ~np.isin(loop, pinned)] for loop in loops]
-    slide = _Rings(sliding, rings, U, corner=corner)
+    sliding, ts = [], []
+    for k, (loop, t) in enumerate(zip(loops, t_all)):
+        keep = ~np.isin(loop, released) & ~np.isin(loop, pinned)
+        loop, t = loop[keep], t[keep]
+        # A start that moved loop vertices (the pull, a released ear) may leave two of them
+        # crossed along the ring: the longest run in order slides, the others are released.
+        u = (t - t[0]) % slide.length[k] if len(t) else t
+        order = _increasing(u) if len(t) else np.zeros(0, dtype=np.int64)
+        released = np.concatenate([released, np.delete(loop, order)])
+        sliding.append(loop[order])
+        ts.append(t[0] + u[order] if len(t) else t)
+    slide = _Rings(sliding, rings, U, t=ts, corner=corner)
     used = np.zeros(len(V), dtype=bool)
     used[F.ravel()] = True
     used[np.concatenate(sliding)] = False
@@ -1385,7 +1406,8 @@ def injective_map(V, F, U0, loops, rings, *, config: InjectiveConfig = Injective
     info.update(reversed=reverse, pinched=pinched, peeled=peeled, handles=handles,
                 joined=joined, corners=len(pinned), scaffold=len(V) - n, start=start,
                 flipped_start=flipped_start, released=len(released),
-                flipped_all=flipped(U, F_all), seconds=time.perf_counter() - t0)
+                flipped_all=flipped(U, F_all), faces=F[:m_mesh],
+                seconds=time.perf_counter() - t0)
     info["free_loops_simple"] = _free_loops_simple(U, F[:m_mesh], loops)
     return U, info
 
@@ -1423,11 +1445,13 @@ def _snap(F: np.ndarray, U: np.ndarray, index: np.ndarray, targets: np.ndarray
     for _ in range(len(index) + 1):
         D = np.zeros_like(U)
         D[index[moved]] = targets[moved] - U[index[moved]]
-        if max_feasible_step(U, F, D) > 1.0:
+        after = U + D
+        # Flat counts as folded: three loop vertices laid on a straight side of a ring make
+        # a triangle of zero area up to rounding, which no barrier can start from.
+        bad = np.flatnonzero(_not_positive(after, F))
+        if not len(bad) and max_feasible_step(U, F, D) > 1.0 - 1e-6:
             U[index[moved]] = targets[moved]
             return moved
-        after = U + D
-        bad = np.flatnonzero(signed_areas(after, F) <= 0)
         if not len(bad):  # the path crosses zero and comes back: take the worst triangles
             mid = U + 0.5 * D
             bad = np.flatnonzero(signed_areas(mid, F) <= 0)
@@ -1436,13 +1460,6 @@ def _snap(F: np.ndarray, U: np.ndarray, index: np.ndarray, targets: np.ndarray
             break
         moved &= ~stuck
     return np.zeros(len(index), dtype=bool)
-
-
-def _ring_points(slide: _Rings, U: np.ndarray) -> np.ndarray:
-    """The point of its ring nearest to each loop vertex, in the order of the loops."""
-    return np.vstack([slide.positions(k, slide._project(slide.rings[k], slide.cum[k],
-                                                        U[loop]))[0]
-                      for k, loop in enumerate(slide.loops)])
 
 
 # ------------------------------------------- step 1: cleaning, loops, corners
@@ -1789,7 +1806,7 @@ def _release(U: np.ndarray, F: np.ndarray, loops: list[np.ndarray], rings: list[
         off[inner if len(inner) <= len(outer) else outer] = True
     on &= ~off
     while True:
-        bad = np.flatnonzero(on[F].all(axis=1) & (signed_areas(U, F) <= 0))
+        bad = np.flatnonzero(on[F].all(axis=1) & _not_positive(U, F))
         if not len(bad):
             break
         T = U[F[bad]]  # (b, 3, 2)

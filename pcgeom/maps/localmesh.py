@@ -440,9 +440,20 @@ RIM_SLIVER = 2.0 * np.pi / 3.0
 that :func:`mesh_flips` leaves out (the disk map's own peel angle)."""
 
 
-def mesh_flips(X: np.ndarray, mesh: LocalMesh, U: np.ndarray) -> dict:
+def _face_keys(F: np.ndarray, n: int) -> np.ndarray:
+    """One integer per triangle of ``F`` (indices below ``n``), whatever its corners' order."""
+    return np.sort(np.asarray(F, dtype=np.int64), axis=1) @ np.array([n * n, n, 1])
+
+
+def mesh_flips(X: np.ndarray, mesh: LocalMesh, U: np.ndarray,
+               dropped: np.ndarray | None = None) -> dict:
     """The triangles of the mesh's main part that the map ``U`` (N, 2) turns over, and where
-    (:func:`pcgeom.metrics.flip_locations`): ``{"count", "faces", "rim", "hole", "inside"}``.
+    (:func:`pcgeom.metrics.flip_locations`): ``{"count", "faces", "rim", "hole", "inside"}``,
+    and ``"dropped"`` when ``dropped`` is given.
+
+    ``dropped`` (k, 3): triangles (rows of ``X``, any order) the map set aside as no
+    flip-free map can hold them (:func:`pcgeom.maps.injective.injective_map`'s cleaning: the
+    smaller of two fans at a vertex, rim slivers, handles); they are not counted.
 
     Measured on the cloud's own mesh, as a run can (the reference mesh, when a user has one,
     is what ``pcgeom evaluate`` measures), without its rim slivers: a triangle on the rim
@@ -465,7 +476,12 @@ def mesh_flips(X: np.ndarray, mesh: LocalMesh, U: np.ndarray) -> dict:
     sliver[face[boundary & (cos < np.cos(RIM_SLIVER))]] = True
     # Flat triangles (collinear points, as along a grid's straight rim) have no orientation.
     sliver[face[cos < np.cos(np.radians(179.0))]] = True
+    extra = {}
+    if dropped is not None:
+        gone = np.isin(_face_keys(F, len(X)), _face_keys(np.reshape(dropped, (-1, 3)), len(X)))
+        sliver |= gone
+        extra["dropped"] = int(gone.sum())
     F = F[~sliver]
     e1, e2 = U[F[:, 1]] - U[F[:, 0]], U[F[:, 2]] - U[F[:, 0]]
     mask = flipped_mask(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-    return {"count": int(mask.sum()), "faces": len(F), **flip_locations(X, F, mask)}
+    return {"count": int(mask.sum()), "faces": len(F), **flip_locations(X, F, mask), **extra}
