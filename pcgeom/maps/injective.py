@@ -1476,6 +1476,8 @@ def _one_fan(F: np.ndarray, rounds: int = 10) -> tuple[np.ndarray, int]:
     the Euler characteristic is -45 where a disk with three holes has -2). Returns the faces
     kept and how many were dropped.
     """
+    from .localmesh import _smaller_fans
+
     dropped = 0
     for _ in range(rounds):
         incident: dict[int, list[int]] = {}
@@ -1484,29 +1486,7 @@ def _one_fan(F: np.ndarray, rounds: int = 10) -> tuple[np.ndarray, int]:
                 incident.setdefault(v, []).append(t)
         drop: set[int] = set()
         for v, tris in incident.items():
-            parent = {t: t for t in tris}  # union-find of the triangles around v
-
-            def root(t: int, parent: dict = parent) -> int:
-                while parent[t] != t:
-                    parent[t] = parent[parent[t]]
-                    t = parent[t]
-                return t
-
-            first: dict[int, int] = {}
-            for t in tris:
-                for w in F[t].tolist():
-                    if w == v:
-                        continue
-                    if w in first:
-                        parent[root(t)] = root(first[w])
-                    else:
-                        first[w] = t
-            fans: dict[int, list[int]] = {}
-            for t in tris:
-                fans.setdefault(root(t), []).append(t)
-            if len(fans) > 1:
-                best = max(fans.values(), key=len)
-                drop.update(t for fan in fans.values() if fan is not best for t in fan)
+            drop.update(_smaller_fans(F, v, tris))
         if not drop:
             break
         F = np.delete(F, sorted(drop), axis=0)

@@ -311,30 +311,36 @@ def _vertex_manifold(faces: np.ndarray, rounds: int = 5) -> np.ndarray:
             tris = [t for t in incident[v] if t not in drop]
             if not tris:
                 continue
-            parent = {t: t for t in tris}  # union-find of the triangles around v
-
-            def root(t: int) -> int:
-                while parent[t] != t:
-                    parent[t] = parent[parent[t]]
-                    t = parent[t]
-                return t
-
-            first: dict[int, int] = {}  # other vertex of an edge at v -> a triangle on it
-            for t in tris:
-                for w in faces[t].tolist():
-                    if w == v:
-                        continue
-                    if w in first:
-                        parent[root(t)] = root(first[w])
-                    else:
-                        first[w] = t
-            fans: dict[int, list[int]] = {}
-            for t in tris:
-                fans.setdefault(root(t), []).append(t)
-            biggest = max(fans.values(), key=len)
-            drop.update(t for fan in fans.values() if fan is not biggest for t in fan)
+            drop.update(_smaller_fans(faces, v, tris))
         faces = np.delete(faces, sorted(drop), axis=0)
     return faces
+
+
+def _smaller_fans(faces: np.ndarray, v: int, tris: list[int]) -> list[int]:
+    """The triangles ``tris`` around vertex ``v`` that are not in its largest fan (a fan:
+    triangles joined through edges at ``v``); none when they make one fan."""
+    parent = {t: t for t in tris}  # union-find of the triangles around v
+
+    def root(t: int) -> int:
+        while parent[t] != t:
+            parent[t] = parent[parent[t]]
+            t = parent[t]
+        return t
+
+    first: dict[int, int] = {}  # other vertex of an edge at v -> a triangle on it
+    for t in tris:
+        for w in faces[t].tolist():
+            if w == v:
+                continue
+            if w in first:
+                parent[root(t)] = root(first[w])
+            else:
+                first[w] = t
+    fans: dict[int, list[int]] = {}
+    for t in tris:
+        fans.setdefault(root(t), []).append(t)
+    biggest = max(fans.values(), key=len)
+    return [t for fan in fans.values() if fan is not biggest for t in fan]
 
 
 def _boundary_loops(faces: np.ndarray) -> list[list[int]]:
