@@ -7,7 +7,7 @@ refinement steps) and the disk map of the same cloud, for contrast. Every map is
 reference triangles (never used to map): angle distortion, flipped triangles, the Hausdorff
 distance of the mapped surface to the domain, and, with landmarks, of the mapped landmark
 points to their targets. Cases: three peaks onto the square; face_3holes_small_choi onto the
-smile; a 20k car shell with 11 holes onto the car (``examples/car.py``'s shell, holes cut);
+smile, and Loop-subdivided once (19.9k points); a 20k car shell with 11 holes onto the car (``examples/car.py``'s shell, holes cut);
 three peaks with a hole cut onto ``annulus:auto``; the car shell with the window-edge
 landmarks (the paper's 7.4). Replaces the section ``bench_domain_maps`` of BENCHMARKS.md.
 """
@@ -31,6 +31,7 @@ TARGETS = {  # case -> (max rad, max flipped %, max surface Hausdorff, max wall 
     "peaks3 onto square": (0.03, 0.05, 0.01, 60.0),
     "face_3holes_small_choi onto smile": (0.05, 0.05, 0.03, 60.0),
     "car shell (11 holes) onto car": (0.04, 0.05, None, 120.0),
+    "face_3holes_small_choi subdivided (19k) onto smile": (0.05, 0.05, None, 120.0),
     "peaks3 with one hole onto annulus:auto": (0.03, 0.05, None, 120.0),
     "car shell, window landmarks": (None, 0.1, None, None),
 }
@@ -65,6 +66,15 @@ def cases(work: Path) -> list[dict]:
         face = H.load_surface("face_3holes_small_choi")
         out.append({"name": "face_3holes_small_choi onto smile", "src": face.src, "V": face.V,
                     "F": face.F, "domain": "smile"})
+        # A denser face with eyes and mouth removed (the issue's held-out 14k face): the same
+        # mesh, Loop-subdivided once (about 20k points).
+        import trimesh
+
+        dense = trimesh.Trimesh(face.V, face.F, process=False).subdivide_loop(1)
+        V, F = np.asarray(dense.vertices), np.asarray(dense.faces)
+        write_ply_atomic(src := work / "face_3holes_subdivided.ply", V, F)
+        out.append({"name": f"face_3holes_small_choi subdivided ({len(V) // 1000}k) onto smile",
+                    "src": src, "V": V, "F": F, "domain": "smile"})
     V, F, _ = car_shell(20_000, seed=0)
     rng = np.random.default_rng(1)
     centres = np.column_stack([rng.uniform(-0.8, 0.8, 11), rng.uniform(-0.5, 0.5, 11)])

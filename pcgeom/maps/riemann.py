@@ -339,14 +339,17 @@ def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: 
     marks = [(np.asarray(i, dtype=np.int64), np.asarray(q, dtype=np.float64),
               cKDTree(np.asarray(q, dtype=np.float64))) for i, q in landmarks]
 
-    def image(theta: float, mirror: bool, rows: np.ndarray) -> np.ndarray:
-        z = np.conj(z0[rows]) if mirror else z0[rows]
-        z = z * np.exp(1j * theta)
+    def turn(z: np.ndarray, theta: float, mirror: bool, a: complex = 0j) -> np.ndarray:
+        z = np.conj(z) if mirror else z
+        return np.exp(1j * theta) * (z - a) / (1 - np.conj(a) * z)
+
+    def image(theta: float, mirror: bool, rows: np.ndarray, a: complex = 0j) -> np.ndarray:
+        z = turn(z0[rows], theta, mirror, a)
         return dd.inverse(np.column_stack([z.real, z.imag]))
 
-    def score(theta: float, mirror: bool) -> tuple[float, float]:
+    def score(theta: float, mirror: bool, a: complex = 0j) -> tuple[float, float]:
         U = np.zeros((len(X), 2))
-        U[used] = image(theta, mirror, used)
+        U[used] = image(theta, mirror, used, a)
         ratio = np.log(np.maximum(_tri_areas(U, faces), 1e-300) / np.maximum(area3, 1e-300))
         # Clipped: the corners of the domain shrink their triangles to nothing whatever the
         # rotation, and would decide it alone.
@@ -356,7 +359,7 @@ def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: 
         spread = math.sqrt(float((weight * (ratio - mean) ** 2).sum()))
         fit = 0.0
         for index, targets, tree in marks:
-            P = image(theta, mirror, index)
+            P = image(theta, mirror, index, a)
             fit += (float(np.mean(tree.query(P)[0] ** 2))
                     + float(np.mean(cKDTree(P).query(targets)[0] ** 2))) / domain.area
         return spread ** 2 + fit, spread
@@ -368,12 +371,33 @@ def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: 
             if best is None or total < best[0]:
                 best = (total, spread, float(theta), mirror)
     _, spread, theta, mirror = best
+    a = 0j
+    if marks:
+        # Landmarks fix more than a turn: every automorphism of the disk keeps the map
+        # conformal, z -> e^(i theta) (z - a) / (1 - conj(a) z), so the landmarks choose a
+        # too (|a| = tanh|b| < 1), from the best turn.
+        from scipy.optimize import minimize
+
+        def total(x: np.ndarray) -> float:
+            b = complex(x[1], x[2])
+            b = b * (math.tanh(abs(b)) / abs(b)) if abs(b) > 1e-12 else b
+            return score(float(x[0]), mirror, b)[0]
+
+        found = minimize(total, np.array([theta, 0.0, 0.0]), method="Nelder-Mead",
+                         options={"xatol": 1e-4, "fatol": 1e-7, "maxfev": 300,
+                                  "initial_simplex": [[theta, 0, 0], [theta + 0.1, 0, 0],
+                                                      [theta, 0.1, 0], [theta, 0, 0.1]]})
+        if found.fun < best[0]:
+            theta, b = float(found.x[0]), complex(found.x[1], found.x[2])
+            a = b * (math.tanh(abs(b)) / abs(b)) if abs(b) > 1e-12 else b
+            spread = score(theta, mirror, a)[1]
     # The cloud's rim points are those its disk map put on the circle.
     on_rim = np.abs(z0) > 1.0 - 1e-9
-    rim_angles = np.angle((np.conj(z0[on_rim]) if mirror else z0[on_rim]) * np.exp(1j * theta))
+    rim_angles = np.angle(turn(z0[on_rim], theta, mirror, a))
     dd, moved = snap_corners(dd, rim_angles)
-    U = image(theta, mirror, np.arange(len(X)))
+    U = image(theta, mirror, np.arange(len(X)), a)
     info = {"rotation_deg": round(math.degrees(theta), 3), "mirror": mirror,
+            "automorphism": [round(a.real, 6), round(a.imag, 6)],
             "domain_mesh_vertices": len(dd.V), "area_spread": round(spread, 4),
             "corners": len(dd.corners), "corner_move_deg": round(math.degrees(moved), 4)}
     return U, info
