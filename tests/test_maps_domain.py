@@ -306,3 +306,23 @@ def test_landmarks_pull_the_conformal_car_map_without_a_fold():
     assert mesh_flips(X, mesh, U, info["dropped_faces"])["count"] == 0
     # Measured: 0.307 plain, 0.299 turned, 0.034 pulled.
     assert after < 0.5 * min(before) and after < 0.045, (before, after)
+
+
+def test_a_domain_hole_without_a_hole_of_the_cloud_gets_the_tearing_refinement():
+    """No injective map leaves a domain hole empty when the cloud has no hole for it: three
+    peaks (a disk) onto the smile get the harmonic layout and the refinement, which tears."""
+    import dataclasses
+
+    from pcgeom import parametrize
+    from pcgeom.config import get_preset
+    from pcgeom.examples import peaks_surface
+
+    config = get_preset("fast")
+    config = dataclasses.replace(config, local_mesh=dataclasses.replace(
+        config.local_mesh, domain_refine=dataclasses.replace(config.local_mesh.domain_refine,
+                                                             steps=20)))
+    V, _ = peaks_surface("peaks3", n_side=24)
+    with pytest.warns(UserWarning, match="3 domain hole\\(s\\) get no hole of the cloud"):
+        result = parametrize(V, "smile", config=config, progress=False)
+    assert result.history[0]["method"] == "harmonic" and "injective" not in result.history[0]
+    assert [r["stage"] for r in result.history][-1] != "localmesh"  # refined

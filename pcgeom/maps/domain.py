@@ -398,6 +398,10 @@ def injective_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: 
     bijection of low angle distortion by :func:`pcgeom.maps.injective.injective_map` (its
     paired loops sliding on their rings, under a barrier on the triangles' areas).
 
+    When a hole of the domain gets no hole of the cloud, no injective map leaves it empty:
+    the harmonic map is returned as it is (``info`` without ``injective``), for a refinement
+    that tears the surface open there.
+
     Parameters and returns as :func:`harmonic_onto`; ``info`` has besides ``injective``: what
     the cleaning dropped (``pinched``, ``peeled``, ``handles`` triangles), the start's
     ``start`` method and ``flipped_start`` (folds of the harmonic map), ``released`` (loop
@@ -411,6 +415,10 @@ def injective_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: 
         not a disk with holes).
     """
     main, (V, F), D, pairs, info = _harmonic_layout(X, mesh, free_uv, domain, landmarks)
+    if info["paired"] < info["domain_holes"]:
+        # A domain hole with no hole of the cloud: an injective map would cover it; only
+        # tearing the surface open (the refinement's HAND) leaves it empty.
+        return _on_all_rows(X, main, D), info
     U, more = _injective(X, mesh, (main, V, F, D), pairs, domain, landmarks, config)
     return U, {**info, **more}
 
@@ -605,8 +613,9 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
         # The surface's holes slide onto the domain's under a barrier: no triangle turns
         # over, and the refinement, which could fold it, does not run.
         U0, info = injective_onto(Xn, mesh, uv, domain, landmarks=marks)
-        method = "injective"
-        refine_config = dataclasses.replace(refine_config, steps=0)
+        if "injective" in info:
+            method = "injective"
+            refine_config = dataclasses.replace(refine_config, steps=0)
     else:
         U0, info = harmonic_onto(Xn, mesh, uv, domain, landmarks=marks)
     dropped = info.pop("dropped_faces", None)
