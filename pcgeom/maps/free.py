@@ -30,7 +30,7 @@ from ..config import ParamConfig
 from ..errors import InputError
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
-from ._sparse import spd_factor
+from ._sparse import solver_name, spd_factor
 from .localmesh import LocalMesh, _interpolate_rest, _submesh, mesh_cloud, mesh_flips
 from .refine import refine
 
@@ -116,7 +116,9 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     settings = config.local_mesh
     mesh, normals, record = mesh_cloud(Xn, normals, settings.neighbours,
                                        settings.normal_neighbours, progress=progress)
-    return lscm_free(Xn, mesh), mesh, normals, record
+    uv = lscm_free(Xn, mesh)
+    record["solver"] = solver_name()  # the sparse factorization that ran
+    return uv, mesh, normals, record
 
 
 def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
@@ -138,6 +140,7 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
     lam_inv : (N,) float64
     record : dict
         The history record (:func:`pcgeom.maps.localmesh.mesh_cloud`'s, plus ``seconds``,
+        ``solver`` (the sparse factorization that ran, :data:`pcgeom.maps._sparse.SOLVERS`),
         ``flips`` (:func:`pcgeom.maps.localmesh.mesh_flips`) and, when refined,
         ``refine_steps`` and the loss terms).
 

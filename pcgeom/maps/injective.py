@@ -186,6 +186,9 @@ class BarrierConfig:
     """Steps over which ``tolerance`` is judged."""
     memory: int = 10
     """Pairs ``(s, y)`` L-BFGS keeps."""
+    refactor: int = 1
+    """Newton: the Hessian is assembled and factored every this many steps, the steps in
+    between reuse the last factor (a descent direction all the same)."""
     max_fraction: float = 0.9
     """The first trial step is at most this fraction of :func:`max_feasible_step`."""
     slide: bool = True
@@ -834,16 +837,20 @@ def _scaled_reference(V: np.ndarray, F: np.ndarray, U: np.ndarray,
 # -------------------------------------------------------------------- solvers
 
 
-def _newton_step(H, g: np.ndarray) -> np.ndarray:
-    """``-H^-1 g`` for the sparse PSD ``H`` (the variables' Hessian), shifted by a tiny
-    multiple of its mean diagonal where the projection left it singular."""
+def _newton_factor(H):
+    """The solve of the sparse PSD ``H`` (the variables' Hessian), shifted by a tiny multiple
+    of its mean diagonal where the projection left it singular."""
     import scipy.sparse as sp
 
     from ._sparse import spd_factor
 
     shift = 1e-9 * max(float(H.diagonal().mean()), 1e-300)
-    A = (H + shift * sp.identity(H.shape[0], format="csr")).tocsc()
-    return -spd_factor(A)(g)
+    return spd_factor((H + shift * sp.identity(H.shape[0], format="csr")).tocsc())
+
+
+def _newton_step(H, g: np.ndarray) -> np.ndarray:
+    """``-H^-1 g`` (:func:`_newton_factor`)."""
+    return -_newton_factor(H)(g)
 
 
 def _newton_minimize(fun, hessian, z: np.ndarray, eps: float, steps: int
@@ -991,8 +998,14 @@ def _descend(V: np.ndarray, F: np.ndarray, layout: _Layout, config: BarrierConfi
     S, Y = [], []
     history = [E]
     evaluations, it, steps_cut = 1, 0, 0
+    solve, age = None, 0
     for it in range(1, config.iterations + 1):
-        d = _newton_step(hessian(W, frames, gU), g) if newton else _lbfgs_direction(g, S, Y)
+        if newton:
+            if solve is None or age >= config.refactor:
+                solve, age = _newton_factor(hessian(W, frames, gU)), 0
+            d, age = -solve(g), age + 1
+        else:
+            d = _lbfgs_direction(g, S, Y)
         if not float(g @ d) < 0 or (not newton and not S):
             if not float(g @ d) < 0:  # not a descent direction: restart from the gradient
                 S, Y = [], []
@@ -1014,6 +1027,9 @@ def _descend(V: np.ndarray, F: np.ndarray, layout: _Layout, config: BarrierConfi
                     break
             a *= 0.5
         if not accepted:
+            if newton and age > 1:  # a Hessian some steps old: try the current one
+                solve = None
+                continue
             break
         s, y = z_new - z, g_new - g
         if s @ y > 1e-12 * math.sqrt((s @ s) * (y @ y)):
