@@ -163,6 +163,7 @@ def run(args) -> int:
                          seed=args.seed, checkpoint=outs["checkpoint"], resume=args.resume,
                          progress=not args.quiet, normals=normals)
     result.faces = faces
+    domain = result.domain  # what the cloud decided filled in (annulus:auto's radius)
     result.save(outs["out"])
     if outs["out_ply"] is not None:
         mapped = np.column_stack([result.uv, np.zeros(len(result.uv))])  # (N, 3), z = 0
