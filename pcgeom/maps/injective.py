@@ -193,11 +193,16 @@ class BarrierConfig:
     """The first trial step is at most this fraction of :func:`max_feasible_step`."""
     slide: bool = True
     """The paired loops slide along their rings (False: they stay where step 3 left them)."""
-    cover: float = 10.0
+    cover: float = 1.0
     """Weight ``mu`` of the uncovered area, ``mu sum_k (|R_k| - |S_k|) / A`` (``R_k``: the
     signed area of ring ``k``, ``S_k``: that of its loop's polygon, ``A``: the map's). Without
     it the loop vertices bunch and long chords cut across holes (the smile's mouth: the loop
-    polygon covered 0.118 of the ring's 0.393; the surface 0.25 from the domain)."""
+    polygon covered 0.118 of the ring's 0.393; the surface 0.25 from the domain); too strong,
+    it drags the rim's triangles along the rings. face_3holes_small_choi onto the smile
+    (angle, flipped true triangles, surface to domain): 10: 0.054 rad, 0.031%, 0.025; 3:
+    0.050, 0.010%, 0.022; 2: 0.0496, 0.010%, 0.027; 1: 0.048, 0.021%, 0.028. The same face
+    Loop-subdivided (19.9k points): 10: 0.0259, 5 flips, 0.0035; 2: 0.0252, 1, 0.0044; 1:
+    0.0241, 1, 0.0084."""
     landmarks: float = 1000.0
     """Weight ``w`` of the landmark term ``w mean |u - q|^2 / A`` over the pairs of each
     landmark set's points with the nearest of its targets, both ways (a Chamfer distance
