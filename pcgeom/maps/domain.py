@@ -212,6 +212,19 @@ def _lay_on_ring(P: np.ndarray, ring: np.ndarray) -> np.ndarray:
     return Q[best]
 
 
+def _main_loops(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
+    """The local mesh made vertex-manifold, its main part (``main``: its rows of ``X``, its
+    vertices and faces) and that part's boundary loops, by decreasing area in the map
+    ``uv`` (N, 2): the outer loop first, then the holes."""
+    faces = _vertex_manifold(mesh.faces)
+    main, V, F = _submesh(X, faces, _main_part(faces, len(X)))
+    P = uv[main]
+    loops = sorted((np.asarray(loop, dtype=np.int64) for loop in _boundary_loops(F)),
+                   key=lambda loop: -abs(_signed_area(P[loop])))
+    return main, V, F, loops
+
+
 def _laid_out(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, domain: Domain, landmarks):
     """Steps 1-2: the cleaned mesh, its loops in ``uv`` and the alignment onto ``domain``.
 
@@ -224,14 +237,10 @@ def _laid_out(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, domain: Domain, la
     if geometry is not None and geometry.geom_type == "MultiPolygon":
         raise InputError(f"domain {domain.label!r} has {len(geometry.geoms)} separate parts; "
                          "the local-mesh map needs one connected region (use --preset networks)")
-    n_all = len(X)
-    faces = _vertex_manifold(mesh.faces)
-    main, V, F = _submesh(X, faces, _main_part(faces, n_all))
+    main, V, F, loops = _main_loops(X, mesh, uv)
     P = uv[main]
-    loops = [np.asarray(loop, dtype=np.int64) for loop in _boundary_loops(F)]
     if not loops:
         raise InputError("the local mesh has no boundary loop; a map onto a domain needs one")
-    loops.sort(key=lambda loop: -abs(_signed_area(P[loop])))
     outer, holes = loops[0], loops[1:]
     rings = [np.asarray(r, dtype=np.float64) for r in domain.boundary_loops()]
     tri = P[F]  # (M, 3, 2)
@@ -239,7 +248,7 @@ def _laid_out(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, domain: Domain, la
     tri_area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
     region_area = float(tri_area.sum())
     region_centroid = (tri_area[:, None] * tri.mean(axis=1)).sum(axis=0) / region_area
-    marks = _on_main(landmarks, main, n_all)
+    marks = _on_main(landmarks, main, len(X))
     align = _align(P, (region_area, region_centroid), (outer, holes), rings, domain, marks)
     return main, V, F, P, outer, holes, rings, align
 
@@ -470,11 +479,8 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
     :func:`riemann_onto`'s record with ``injective`` (as :func:`injective_onto`'s).
     """
     U0, info = riemann_onto(X, mesh.faces, disk_uv, domain, landmarks=landmarks)
-    faces = _vertex_manifold(mesh.faces)
-    main, V, F = _submesh(X, faces, _main_part(faces, len(X)))
+    main, V, F, loops = _main_loops(X, mesh, U0)
     D = U0[main]
-    loops = sorted((np.asarray(loop, dtype=np.int64) for loop in _boundary_loops(F)),
-                   key=lambda loop: -abs(_signed_area(D[loop])))
     if not loops:
         raise InputError("the local mesh has no boundary loop; a map onto a domain needs one")
     outer = loops[0] if _signed_area(D[loops[0]]) > 0 else loops[0][::-1]
@@ -504,11 +510,7 @@ def annulus_radius(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> float
     """
     import igl
 
-    faces = _vertex_manifold(mesh.faces)
-    main, V, F = _submesh(X, faces, _main_part(faces, len(X)))
-    P = free_uv[main]
-    loops = sorted((np.asarray(loop, dtype=np.int64) for loop in _boundary_loops(F)),
-                   key=lambda loop: -abs(_signed_area(P[loop])))
+    main, V, F, loops = _main_loops(X, mesh, free_uv)
     if len(loops) < 2:
         raise InputError("annulus:auto needs a surface with a hole, and the cloud's local mesh "
                          "has none; give the inner radius (annulus:R)")
