@@ -379,3 +379,65 @@ def test_face_with_three_holes_onto_the_smile():
     assert report.mean_abs < 0.065
     assert report.flipped <= 0.001 * report.n_faces
     assert surface_hausdorff(W, cloud.faces, domain, n=50_000) < 0.035
+
+
+def test_target_curves_finds_evenly_sampled_polylines_only():
+    from pcgeom.io.landmarks import sample_polyline
+
+    line = sample_polyline([[-0.5, -0.25], [0.5, -0.25]], 1 / 199)  # 200 points
+    corner = sample_polyline([[0, 0], [1, 0], [1, 1]], 0.01)  # 201, one chord at the corner
+    assert inj._target_curves(np.vstack([line, corner])) == [(0, 200), (200, 401)]
+    t = np.linspace(0, 2 * np.pi, 100)
+    assert inj._target_curves(np.column_stack([np.cos(t), np.sin(t)])) == [(0, 100)]
+    scattered = np.random.default_rng(0).uniform(size=(50, 2))
+    assert inj._target_curves(scattered) == []
+    assert inj._target_curves(line[:3]) == []
+
+
+def test_curve_pairs_spread_points_by_their_3d_arc_length():
+    """Points along a 3D line, twice as far apart in their second half, mapped anywhere near
+    a target segment: they keep their order along it, the ends go to its ends, and the gaps
+    follow the 3D gaps."""
+    from pcgeom.io.landmarks import sample_polyline
+
+    x = np.concatenate([np.linspace(0, 1, 5), np.linspace(1.5, 3, 4)])  # gaps 0.25, 0.5
+    P = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+    u = np.column_stack([np.linspace(-0.2, 0.1, 9), np.full(9, 0.05)])
+    shuffle = np.random.default_rng(1).permutation(9)
+    curve = sample_polyline([[-0.5, 0.0], [0.5, 0.0]], 0.01)
+    q = inj._curve_pairs(P[shuffle], u[shuffle], curve)
+    np.testing.assert_allclose(q[np.argsort(shuffle)], np.column_stack(
+        [-0.5 + x / 3, np.zeros(9)]), atol=1e-12)
+
+
+def test_landmark_pairs_follow_each_curve_with_its_own_piece():
+    """Two landmark edges (3D pieces) and two target lines: each edge is paired along the
+    line it lies nearer to, one target per landmark point; scattered targets get the
+    Chamfer pairs (every landmark point and every target paired)."""
+    from pcgeom.io.landmarks import sample_polyline
+
+    x = np.linspace(0, 1, 11)
+    V = np.vstack([np.column_stack([x, np.zeros(11), np.zeros(11)]),
+                   np.column_stack([x, np.ones(11), np.zeros(11)])])
+    U = V[:, :2] * [0.8, 0.4] - [0.4, 0.1]  # the first edge near y = -0.1, the other 0.3
+    lines = np.vstack([sample_polyline([[-0.5, 0.25], [0.5, 0.25]], 0.01),
+                       sample_polyline([[-0.5, -0.25], [0.5, -0.25]], 0.01)])
+    index, targets, weight = inj._landmark_pairs(V, U, [(np.arange(22), lines)], 7.0)
+    assert weight == 7.0 and sorted(index.tolist()) == list(range(22))
+    y = dict(zip(index.tolist(), targets[:, 1]))
+    assert all(y[k] == -0.25 for k in range(11)) and all(y[k] == 0.25 for k in range(11, 22))
+    scattered = np.random.default_rng(0).uniform(-0.5, 0.5, size=(30, 2))
+    index, targets, _ = inj._landmark_pairs(V, U, [(np.arange(22), scattered)], 1.0)
+    assert len(index) == 22 + 30 and set(index.tolist()) <= set(range(22))
+
+
+def test_curve_pairs_on_a_closed_curve_turn_the_least():
+    """Points evenly around a 3D circle, mapped onto a target circle turned by a little:
+    each goes to the target point at its own angle (the loop is not cut at the curve's
+    first sample)."""
+    t = np.linspace(0, 2 * np.pi, 201)
+    curve = np.column_stack([np.cos(t), np.sin(t)])
+    a = 2 * np.pi * (np.arange(12) + 0.5) / 12 + 0.02
+    P = np.column_stack([np.cos(a), np.sin(a), np.zeros(12)])
+    q = inj._curve_pairs(P, 1.1 * P[:, :2], curve)
+    np.testing.assert_allclose(np.arctan2(q[:, 1], q[:, 0]) % (2 * np.pi), a, atol=2e-3)

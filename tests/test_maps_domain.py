@@ -304,8 +304,9 @@ def test_landmarks_pull_the_conformal_car_map_without_a_fold():
     after = hausdorff(U[edges], targets)
     assert info["injective"]["flipped"] == 0
     assert mesh_flips(X, mesh, U, info["dropped_faces"])["count"] == 0
-    # Measured: 0.307 plain, 0.299 turned, 0.034 pulled.
-    assert after < 0.5 * min(before) and after < 0.045, (before, after)
+    # Measured: 0.301 plain, 0.308 turned, 0.0113 pulled along the lines by arc length (0.034
+    # with nearest-target pairs).
+    assert after < 0.5 * min(before) and after < 0.02, (before, after)
 
 
 def test_a_domain_hole_without_a_hole_of_the_cloud_gets_the_tearing_refinement():
