@@ -152,7 +152,8 @@ def bench_input(kind: str, src: Path, given, args, s: H.Surface, diag: float, di
         return row
     made = ParamResult.load(row["map"]["path"], n_points=len(s.V), against=os.fspath(src))
     row["map"].update(preset=made.preset, version=made.version,
-                      normals=made.history[0].get("normals") if made.history else None)
+                      normals=next((r.get("normals") for r in made.history
+                                    if r.get("stage") != "denoise"), None))
     for extra in BOUNDARY_RULES:
         loops = args.work / f"{src.stem}_loops.json"
         run = H.pcgeom_cli("boundary", src, "--map", row["map"]["path"], "--out", loops, *extra,

@@ -122,10 +122,15 @@ def _load_input(args) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None,
             src.with_name(f"{src.stem}_uv.npz"))
 
 
+def _map_record(history: list[dict]) -> dict:
+    """The map's first record (after the denoising's, when the run had one)."""
+    return next((r for r in history if r.get("stage") != "denoise"), {})
+
+
 def _normals_used(history: list[dict], given: bool) -> str:
     """``"input"``, ``"estimated"`` (the local-mesh map estimated them) or ``"none"``."""
-    if history and history[0].get("kind") == "localmesh":
-        return history[0]["normals"]
+    if _map_record(history).get("kind") == "localmesh":
+        return _map_record(history)["normals"]
     return "input" if given else "none"
 
 
@@ -199,7 +204,7 @@ def run(args) -> int:
         "seed": args.seed,
         "version": result.version,
         "seconds": float(result.seconds),
-        "method": "localmesh" if result.history and result.history[0].get("kind") == "localmesh"
+        "method": "localmesh" if _map_record(result.history).get("kind") == "localmesh"
                   else "networks",
         "normals": _normals_used(result.history, normals is not None),
         "loss": {k: float(final[k]) for k in LOSS_TERMS if k in final},

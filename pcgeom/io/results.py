@@ -18,6 +18,10 @@ key                content
 ``fingerprint``    () str, SHA-1 of the input coordinates (:func:`pcgeom.cloud.fingerprint`)
 ``seconds``        () float64 training time
 ``faces``          (M, 3) int64 reference faces of the input, when it had them (optional)
+``denoise_json``   the noise estimate and what was done about it (optional,
+                   :func:`pcgeom.denoise.denoise_points`'s record)
+``fitted``         (N, 3) float64 the points the map was made of, when the cloud was
+                   denoised (optional; input units and row order)
 =================  ==========================================================================
 
 Files written before ``domain_json``, ``seed`` and ``version`` existed still load, with a
@@ -77,6 +81,12 @@ class ParamResult:
     """pcgeom version that made the map ("unknown" for old files)."""
     faces: np.ndarray | None = None
     """(M, 3) reference faces of the input, kept only to evaluate the map."""
+    denoise: dict | None = None
+    """The noise estimate and what was done (:func:`pcgeom.denoise.denoise_points`'s record,
+    ``noise_std`` and ``spacing`` in input units); None when denoising was off."""
+    fitted: np.ndarray | None = None
+    """(N, 3) float64 the points on the fitted surface that the map was made of (input units
+    and rows), when the cloud was denoised; None otherwise."""
 
     @property
     def preset(self) -> str:
@@ -111,6 +121,10 @@ class ParamResult:
         }
         if self.faces is not None:
             arrays["faces"] = np.asarray(self.faces, dtype=np.int64)
+        if self.denoise is not None:
+            arrays["denoise_json"] = np.str_(json.dumps(self.denoise))
+        if self.fitted is not None:
+            arrays["fitted"] = np.asarray(self.fitted, dtype=np.float64)
         write_atomic(path, lambda f: np.savez_compressed(f, **arrays))
         return path
 
@@ -171,6 +185,7 @@ class ParamResult:
             history = json.loads(str(data["history_json"])) if "history_json" in data else []
             domain_spec = json.loads(str(data["domain_json"])) if "domain_json" in data else None
             domain = get_domain(domain_spec) if domain_spec is not None else None
+            denoise = json.loads(str(data["denoise_json"])) if "denoise_json" in data else None
         except (ValueError, TypeError) as exc:  # JSONDecodeError and InputError are ValueErrors
             raise InputError(f"{name}: cannot parse its config, history or domain: "
                              f"{_one_line(exc)}") from None
@@ -179,6 +194,10 @@ class ParamResult:
             warnings.warn(f"{name}: written by an older pcgeom or another tool; unknown: "
                           f"{', '.join(k.removesuffix('_json') for k in absent)}", stacklevel=2)
         seed = int(data["seed"]) if "seed" in data else -1
+        fitted = data.get("fitted")
+        if fitted is not None and (fitted.shape != (len(uv), 3) or not np.isfinite(fitted).all()):
+            raise InputError(f"{name}: 'fitted' must be finite, of shape ({len(uv)}, 3), "
+                             f"got {fitted.shape}")
         return cls(
             uv=uv.astype(np.float64),
             lambda_inv=None if lambda_inv is None else lambda_inv.astype(np.float64),
@@ -192,4 +211,6 @@ class ParamResult:
             fingerprint=(str(data["fingerprint"]) or None) if "fingerprint" in data else None,
             version=str(data["version"]) if "version" in data else "unknown",
             faces=validate_faces(data["faces"], len(uv), name) if "faces" in data else None,
+            denoise=denoise,
+            fitted=None if fitted is None else fitted.astype(np.float64),
         )

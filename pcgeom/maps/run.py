@@ -27,6 +27,7 @@ import torch
 from .._version import __version__
 from ..cloud import deduplicate, fingerprint, normalize, validate_normals, validate_points
 from ..config import ParamConfig, get_preset
+from ..denoise import denoise_points
 from ..domains import Disk, Domain, get_domain
 from ..errors import InputError
 from ..io.results import ParamResult
@@ -179,6 +180,13 @@ def parametrize(
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
     kind = choose_map(domain, config, bool(landmarks))
     log(f"{len(P)} points onto {domain.label}: the {kind} map", enabled=progress)
+    Xn, denoised = denoise_points(Xn, config.denoise, normals)
+    # The record in input units; it is the run's first stage when it moved the points.
+    denoised.update({k: denoised[k] * scale for k in ("noise_std", "spacing")
+                     if denoised[k] is not None})
+    if denoised["applied"]:
+        log(f"noise {denoised['noise']:.2f} spacings: the map is made of the fitted surface "
+            f"(points moved {denoised['moved']:.2f} spacings on average)", enabled=progress)
 
     def result(uv, lam_inv, history) -> ParamResult:
         """The run's result, rows back in the input's order (duplicates included); a warning
@@ -188,8 +196,11 @@ def parametrize(
             uv=np.asarray(uv, dtype=np.float64)[inverse],
             lambda_inv=np.asarray(lam_inv, dtype=np.float64)[inverse],
             center=center, scale=float(scale), config=config, domain=domain, seed=seed,
-            history=history, seconds=time.perf_counter() - t_start,
+            history=([denoised] if denoised["applied"] else []) + list(history),
+            seconds=time.perf_counter() - t_start,
             fingerprint=fingerprint(P), version=__version__,
+            denoise=denoised if config.denoise.mode != "off" else None,
+            fitted=(Xn * scale + center)[inverse] if denoised["applied"] else None,
         )
 
     def report(record: dict, U) -> None:
