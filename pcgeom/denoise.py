@@ -22,15 +22,20 @@ point.
    ``neighbours`` nearest points with Gaussian weights ``exp(-d^2 / (2 rho^2))``,
    ``rho = max(width * h, d_12 / 2)`` (``d_12``: the distance to the 12th neighbour, so
    that a sparse part of the cloud keeps enough points in its fit), onto the fitted
-   quadric.
-3. **Directions** (:func:`denoise_points`). The fitted heights are only half of it: the
-   input point is moved onto the fitted surface along a direction, and any error in that
-   direction shifts the point *along* the surface, which distorts the map's angles as much as
-   the noise did (measured on face_3holes_small_choi with depth noise 0.5: heights fitted as
-   above and the true normals 0.019 rad; the fit's own normals 0.063 rad). With the input's
-   oriented normals (a scanner's) the point moves along its normal; without, along the PCA
-   normal of the fitted points (16 neighbours), which measured best among the fit's gradient,
-   PCA of the noisy points and larger neighbourhoods.
+   quadric. ``width`` grows with the noise (:class:`pcgeom.config.DenoiseConfig`). With
+   oriented normals, each fit keeps the neighbours on its point's sheet.
+3. **Directions** (:func:`denoise_points`). The input point is then moved onto the fitted
+   surface along the PCA normal of the fitted points (16 neighbours). Any error in that
+   direction shifts the point *along* the surface, which the map's angles feel as much as
+   the noise: on face_3holes_small_choi with depth noise 0.5 (LSCM on the true connectivity
+   of the moved points), the true normals would give 0.019 rad; the fitted points' PCA
+   normals give 0.063, the fit's own gradient 0.063-0.070, the noisy points' PCA 0.065-0.078,
+   larger neighbourhoods more, the noisy mesh's normals 0.142. This, not the fitted heights,
+   is what limits a bare cloud.
+
+pymeshlab's MLS projections (``compute_mls_projection_apss`` and ``_rimls``, pymeshlab
+2025.7.post1) were to be measured against this: both crash the interpreter (segmentation
+fault) on these clouds, with or without faces, with or without torch imported.
 
 :func:`denoise_points` is the whole step as a run takes it (:class:`pcgeom.config.DenoiseConfig`
 decides whether to apply it); it returns the moved points and a record of what it did.
@@ -116,7 +121,8 @@ def estimate_noise(X, neighbours: int = 32) -> NoiseEstimate:
     return NoiseEstimate(float(np.median(rms)), float(np.median(gaps)))
 
 
-def fit_heights(X, width: float, spacing: float, neighbours: int = 96):
+def fit_heights(X, width: float, spacing: float, neighbours: int = 96,
+                normals=None) -> np.ndarray:
     """Each point moved along the normal of its weighted quadric fit onto that quadric
     (step 2 of the module's description).
 
@@ -131,6 +137,9 @@ def fit_heights(X, width: float, spacing: float, neighbours: int = 96):
         The cloud's spacing (:func:`estimate_noise`).
     neighbours : int
         Points each fit may use, the point itself included.
+    normals : (N, 3) array_like, optional
+        Oriented normals: a neighbour whose normal points the other way (``n_i . n_j <= 0``,
+        the other sheet of a fold) gets weight 0 in the point's fit.
 
     Returns
     -------
@@ -145,12 +154,15 @@ def fit_heights(X, width: float, spacing: float, neighbours: int = 96):
         x0 = X[s:s + _CHUNK]
         P = X[nb[s:s + _CHUNK]]  # (n, k, 3)
         w = np.exp(-dist[s:s + _CHUNK] ** 2 / (2 * rho[s:s + _CHUNK, None] ** 2))  # (n, k)
+        if normals is not None:
+            same = np.einsum("nd,nkd->nk", normals[s:s + _CHUNK], normals[nb[s:s + _CHUNK]])
+            w = np.where(same > 0, w, 0.0)
         centre = np.einsum("nk,nkd->nd", w, P) / w.sum(axis=1, keepdims=True)
         Q = P - centre[:, None]
-        _, frame = np.linalg.eigh(np.einsum("nk,nki,nkj->nij", w, Q, Q))
-        local = np.einsum("nkd,nde->nke", Q, frame)
+        _, frame = np.linalg.eigh(np.einsum("nk,nki,nkj->nij", w, Q, Q))  # columns: n, t1, t2
+        local = np.einsum("nkd,nde->nke", Q, frame)  # (n, k, 3)
         own = np.einsum("nd,nde->ne", x0 - centre, frame)
-        A = _quadric_basis(local[..., 1], local[..., 2])
+        A = _quadric_basis(local[..., 1], local[..., 2])  # (n, k, 6)
         AtA = np.einsum("nk,nki,nkj->nij", w, A, A) + 1e-12 * np.eye(6)
         Atz = np.einsum("nk,nki,nk->ni", w, A, local[..., 0])
         coef = np.linalg.solve(AtA, Atz[..., None])[..., 0]
@@ -171,8 +183,11 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
         ``mode`` ``"off"``: nothing (no estimate either); ``"auto"``: denoise when the
         estimated noise exceeds ``threshold`` spacings; ``"on"``: always.
     normals : (N, 3) array_like, optional
-        Oriented (or not) unit normals, one per row: the direction each point moves along.
-        Without them, the PCA normals of the fitted points.
+        Oriented unit normals, one per row: each fit keeps the neighbours on its point's
+        sheet (:func:`fit_heights`). The points still move along the fitted points' normals:
+        a scanner's normals are estimated from its noisy points (on face_3holes_small_choi
+        with depth noise 0.5, moving along the noisy mesh's normals maps at 0.142 rad, along
+        the fitted points' at 0.063).
     estimate : NoiseEstimate, optional
         The cloud's noise estimate, if already made.
 
@@ -181,15 +196,16 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
     Y : (N, 3) float64
         The points on the fitted surface (``X`` itself when not applied).
     record : dict
-        ``noise`` (estimated std in spacings; None when off), ``noise_std`` and ``spacing``
-        (the cloud's units), ``applied``, ``mode``, ``width``, ``directions`` (``"input
-        normals"`` or ``"fitted"``), ``moved`` (mean distance moved, in spacings), ``seconds``.
+        ``stage`` ("denoise"), ``mode``, ``noise`` (the estimated std in spacings; None when
+        off), ``noise_std`` and ``spacing`` (the cloud's units), ``applied``, ``width`` (of
+        the fits, in spacings), ``same_sheet`` (normals kept the fits on one sheet),
+        ``moved`` (mean distance moved, in spacings), ``seconds``.
     """
     t0 = time.perf_counter()
     X = np.asarray(X, dtype=np.float64)
     record = {"stage": "denoise", "mode": config.mode, "applied": False, "noise": None,
-              "noise_std": None, "spacing": None, "width": config.width, "directions": None,
-              "moved": 0.0, "seconds": 0.0}
+              "noise_std": None, "spacing": None, "width": config.width,
+              "same_sheet": normals is not None, "moved": 0.0, "seconds": 0.0}
     if config.mode == "off":
         return X, record
     est = estimate if estimate is not None else estimate_noise(X, config.noise_neighbours)
@@ -197,12 +213,14 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
     if config.mode == "auto" and est.relative <= config.threshold:
         record["seconds"] = time.perf_counter() - t0
         return X, record
-    fitted = fit_heights(X, config.width, est.spacing, config.neighbours)
     if normals is not None:
-        d, record["directions"] = np.asarray(normals, dtype=np.float64), "input normals"
-    else:
-        d, record["directions"] = local_pca(fitted, 16)[1][:, :, 0], "fitted"
+        normals = np.asarray(normals, dtype=np.float64)
+    width = max(config.width, config.width_per_noise * est.relative)
+    fitted = fit_heights(X, width, est.spacing, config.neighbours, normals)
+    # The input's normals are as noisy as its points (a scanner estimates them from its own
+    # mesh): the fitted points' normals are the better direction.
+    d = local_pca(fitted, 16)[1][:, :, 0]
     Y = X + np.einsum("nd,nd->n", fitted - X, d)[:, None] * d
-    record.update(applied=True, moved=float(np.linalg.norm(Y - X, axis=1).mean() / est.spacing),
-                  seconds=time.perf_counter() - t0)
+    moved = float(np.linalg.norm(Y - X, axis=1).mean() / est.spacing)
+    record.update(applied=True, width=width, moved=moved, seconds=time.perf_counter() - t0)
     return Y, record

@@ -12,8 +12,9 @@ from types import ModuleType
 from ..errors import InputError
 
 __all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "int_at_least",
-           "seed", "distinct_paths", "add_cloud_and_map", "load_free_map", "print_angles",
-           "flip_places", "add_command", "standalone_parser", "run_command"]
+           "seed", "denoise_option", "add_denoise_option", "distinct_paths", "add_cloud_and_map",
+           "load_free_map", "print_angles", "print_noise", "flip_places", "add_command",
+           "standalone_parser", "run_command"]
 
 EXIT_OK = 0
 EXIT_FAILURE = 1  # the run itself failed (I/O error, missing optional dependency)
@@ -47,6 +48,27 @@ def int_at_least(minimum: int):
 
 seed = int_at_least(0)
 """argparse type of ``--seed``: a non-negative int."""
+
+
+def denoise_option(text: str) -> str:
+    """argparse type of ``--denoise``: ``auto``, ``off`` or a positive strength, checked by
+    :func:`pcgeom.config.denoise_config` (the value is kept as given)."""
+    from ..config import denoise_config
+
+    try:
+        denoise_config(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("denoise: ")) from None
+    return text
+
+
+def add_denoise_option(p: argparse.ArgumentParser) -> None:
+    """``--denoise``, shared by the commands that map a cloud."""
+    p.add_argument("--denoise", type=denoise_option, metavar="auto|off|STRENGTH",
+                   help="fit the surface before the map: auto (denoise when the estimated "
+                        "noise exceeds 0.2 spacings), off, or STRENGTH, the fit's Gaussian "
+                        "width in spacings (median nearest-neighbour distances), always "
+                        "applied; 3 is auto's (default: the preset's, auto for fast)")
 
 
 def distinct_paths(inputs: dict[str, str | None], outputs: dict[str, Path | None]) -> None:
@@ -115,6 +137,17 @@ def print_angles(report: dict) -> None:
     print(f"angle distortion: mean {report['mean_abs_angle_rad']:.4f} rad over "
           f"{report['n_faces']} triangles, {report['flipped']} flipped "
           f"({report['flipped_percent']:.2f}%){flip_places(report.get('flipped_where'))}")
+
+
+def print_noise(record: dict | None) -> None:
+    """The human line for a run's noise estimate and denoising (``ParamResult.denoise``)."""
+    if not record or record.get("noise") is None:
+        return
+    done = (f"denoised (fit width {record['width']:g} spacings, points moved "
+            f"{record['moved']:.2f} spacings on average, {record['seconds']:.1f} s)"
+            if record["applied"] else "not denoised (--denoise STRENGTH to force it)")
+    print(f"noise: {record['noise']:.3f} spacings estimated (std {record['noise_std']:.4g}, "
+          f"spacing {record['spacing']:.4g}); {done}")
 
 
 def flip_places(where: dict | None) -> str:

@@ -18,15 +18,16 @@ import torch
 
 from ..apps.evaluate import map_report
 from ..cloud import validate_points
-from ..config import PRESETS, get_preset
+from ..config import PRESETS, get_preset, with_denoise
 from ..domains import DOMAINS, PolygonDomain, get_domain
 from ..errors import InputError
 from ..examples import EXAMPLES, load_example
 from ..io import check_writable, read_landmarks, read_points, write_ply_atomic
 from ..maps import parametrize
 from ..train import LOSS_TERMS, resolve_device
-from ._common import (EXIT_OK, distinct_paths, flip_places, int_at_least, print_angles,
-                      print_domain_fit, run_command, seed, standalone_parser)
+from ._common import (EXIT_OK, add_denoise_option, distinct_paths, flip_places, int_at_least,
+                      print_angles, print_domain_fit, print_noise, run_command, seed,
+                      standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -53,6 +54,9 @@ examples:
   pcgeom param scan.las --normals ignore --json
       a LAS scan; ignore the file's normals (they are used when present: they keep the
       two sheets apart where the surface doubles back)
+  pcgeom param noisy_scan.ply --denoise 4 --json
+      fit the surface with a wider kernel than auto's before the map (the summary's
+      "denoise" holds the estimated noise; the map file keeps the fitted points)
   pcgeom param scan.xyz --resume
       continue an interrupted run from scan_uv.ckpt (same input, preset and seed)
 
@@ -85,6 +89,7 @@ def configure(p: argparse.ArgumentParser) -> None:
                         "(default: auto)")
     p.add_argument("--preset", default="fast", metavar="NAME",
                    help=f"training preset: {', '.join(PRESETS)} (default: fast)")
+    add_denoise_option(p)
     p.add_argument("--device", default="auto", metavar="DEV",
                    help="auto, cpu or cuda (default: auto, CUDA when available)")
     p.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
@@ -150,7 +155,7 @@ def run(args) -> int:
     """Run ``pcgeom param`` on parsed arguments; returns the exit status."""
     # Everything that can be wrong with the request is checked here, before training.
     domain = get_domain(args.domain)
-    config = get_preset(args.preset)
+    config = with_denoise(get_preset(args.preset), args.denoise)
     device = resolve_device(args.device)
     points, faces, normals, name, default_out = _load_input(args)
     landmarks = []
@@ -207,6 +212,7 @@ def run(args) -> int:
         "method": "localmesh" if _map_record(result.history).get("kind") == "localmesh"
                   else "networks",
         "normals": _normals_used(result.history, normals is not None),
+        "denoise": result.denoise,
         "loss": {k: float(final[k]) for k in LOSS_TERMS if k in final},
         "landmark_hausdorff": final.get("landmark_hausdorff"),
         "evaluation": evaluation,
@@ -222,6 +228,7 @@ def run(args) -> int:
           f"seed {args.seed}: {summary['seconds']:.1f} s")
     note = "" if summary["normals"] == "input" else f" ({NO_NORMALS_NOTE})"
     print(f"method {summary['method']}, normals {summary['normals']}{note}")
+    print_noise(result.denoise)
     if summary["loss"]:
         print("final loss: " + ", ".join(f"{k} {v:.4g}" for k, v in summary["loss"].items()))
     print_domain_fit(summary, domain.label)

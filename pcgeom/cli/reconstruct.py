@@ -9,14 +9,15 @@ import sys
 from ..apps.boundary import detect_boundary
 from ..apps.reconstruct import (SIZES, check_mesh_path, reconstruct_on_domain,
                                  reconstruct_surface, require_gmsh, write_mesh)
-from ..config import get_preset
+from ..config import get_preset, with_denoise
 from ..domains import get_domain
 from ..errors import InputError
 from ..io import read_points
 from ..maps import parametrize
 from .boundary import add_hole_options
-from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, int_at_least, load_free_map,
-                      run_command, standalone_parser)
+from ._common import (EXIT_OK, add_cloud_and_map, add_denoise_option, distinct_paths,
+                      int_at_least, load_free_map, print_noise, run_command,
+                      standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -38,7 +39,12 @@ examples:
       maps the cloud onto the disk first (preset fast), then meshes the disk itself and lifts
       it (one boundary loop, the circle's); with --map, a map that 'pcgeom param scan.ply
       --domain disk' wrote
+  pcgeom reconstruct noisy_scan.ply --denoise auto --out mesh.ply
+      fits the surface first when the scan is noisy (as by default): the mesh is lifted over
+      the fitted points, not the noisy ones
 
+With a map made of denoised points (pcgeom param --denoise, or auto on a noisy scan), the
+mesh is lifted over the fitted points the map file keeps, and the distances below are to them.
 The mesh is edge-manifold, counter-clockwise in the map (so consistently oriented), with one
 boundary loop per detected loop (per domain loop with --domain); every loop point of INPUT is
 a mesh vertex (without --domain). With --domain and no --map, INPUT is mapped onto the
@@ -61,6 +67,7 @@ def configure(p) -> None:
                    help="mesh size rule: uniform (default), or adaptive: size proportional to "
                         "lambda_inv^-1/2 of the map (finer where the map compresses the "
                         "surface)")
+    add_denoise_option(p)
     p.add_argument("--target-vertices", type=int_at_least(3), default=5000, metavar="N",
                    help="about how many vertices the mesh gets (default: 5000)")
     p.add_argument("--out", required=True, metavar="MESH.ply|MESH.obj",
@@ -76,6 +83,10 @@ def run(args) -> int:
     """Run ``pcgeom reconstruct`` on parsed arguments; returns the exit status."""
     # Everything that can be wrong with the request is checked before any training.
     points = read_points(args.input).points
+    if args.denoise is not None and args.map is not None:
+        raise InputError("--denoise: the map is read from --map; denoise when making it "
+                         "(pcgeom param --denoise), or drop --map")
+    config = with_denoise(get_preset("fast"), args.denoise)
     out = check_mesh_path(args.out)
     distinct_paths({"INPUT": args.input, "--map": args.map}, {"out": out})
     domain = get_domain(args.domain) if args.domain is not None else None
@@ -87,17 +98,19 @@ def run(args) -> int:
                                hint=" or --domain with the map's domain")
     else:
         result = parametrize(points, domain if domain is not None else "free",
-                             config=get_preset("fast"), progress=not args.quiet)
+                             config=config, progress=not args.quiet)
+    # A denoised map was made of the fitted points: the mesh is lifted over them.
+    lifted = result.fitted if result.fitted is not None else points
     if domain is not None:
-        return _on_domain(args, points, result, domain, out)
+        return _on_domain(args, lifted, result, domain, out)
 
-    loops = detect_boundary(result.uv, points=points, min_width=args.min_width,
+    loops = detect_boundary(result.uv, points=lifted, min_width=args.min_width,
                             cloud_spacing=args.cloud_spacing)
     if not loops.loops:
         raise InputError(f"{args.input}: its map has no boundary loop of {loops.min_loop} points "
                          f"or more ({len(loops.dropped)} smaller ones dropped); the "
                          "reconstruction would be empty")
-    V, F, report = reconstruct_surface(points, result.uv, loops, size=args.size,
+    V, F, report = reconstruct_surface(lifted, result.uv, loops, size=args.size,
                                        target_vertices=args.target_vertices,
                                        lambda_inv=result.lambda_inv)
     write_mesh(out, V, F)
@@ -116,6 +129,7 @@ def _summary(args, points, result, out, report: dict, **extra) -> dict:
         **extra,
         **report,
         "mapped_seconds": None if args.map is not None else float(result.seconds),
+        "denoise": result.denoise,
     }
 
 
@@ -142,6 +156,7 @@ def _print(args, points, report: dict, summary: dict, loops: str) -> int:
           f"mean {report['mean_distance_rel']:.4f}")
     print(f"  triangles: min angle {report['min_angle_deg']:.1f} deg, "
           f"max aspect ratio {report['max_aspect_ratio']:.2f}")
+    print_noise(summary["denoise"])
     return EXIT_OK
 
 
