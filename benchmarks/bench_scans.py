@@ -4,7 +4,9 @@
 never sees, on inputs written from each reference mesh: with its vertex normals (as a scanner
 writes them) and bare; with Gaussian noise of :data:`NOISE_EDGES` mean edge lengths (scored
 against the noisy points on the true connectivity, beside libigl's LSCM on that noisy mesh);
-and three bumps over a square of N random points, for time and peak memory against N (drawn
+with depth noise of :data:`DEPTH_NOISE` mean edge lengths along the normals, bare, mapped
+with ``--denoise off`` and ``auto`` and judged on the clean mesh, the clean clouds the same
+way, and ``pcgeom reconstruct`` of a noisy face against the clean mesh; and three bumps over a square of N random points, for time and peak memory against N (drawn
 to ``benchmarks/figures/<stem>_time_vs_n.png``, or next to an ``--out`` elsewhere). Replaces
 the section ``--section`` (default ``bench_scans``) of BENCHMARKS.md.
 """
@@ -20,6 +22,14 @@ import numpy as np
 
 NOISE_EDGES = 0.25
 """Noise level, in mean edge lengths (the issue's)."""
+
+DEPTH_NOISE = (0.25, 0.5, 1.0)
+"""Depth noise levels (Gaussian along the clean mesh's vertex normals), in mean edge lengths."""
+
+DENOISE_TARGETS = {  # (surface, depth noise) -> (max rad, max flipped %), issue 25
+    ("face_3holes_small_choi", 0.5): (0.04, 0.1),
+    ("face_human_choi", 0.5): (0.04, 0.1),
+}
 
 TARGETS = {  # (surface, input kind, preset) -> (max rad, max flipped %, max seconds)
     ("face_human_choi", "normals", "fast"): (0.025, 0.1, 60.0),
@@ -87,6 +97,128 @@ def noise_rows(names, work: Path, seed: int = 0) -> list[dict]:
     return rows
 
 
+def depth_noisy(V, F, level: float, seed: int = 0):
+    """``V`` moved along the clean mesh's vertex normals by Gaussian noise of ``level`` mean
+    edge lengths (a range scanner's depth noise), and that noise's std."""
+    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    std = level * float(np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1).mean())
+    noise = np.random.default_rng(seed).normal(scale=std, size=(len(V), 1))
+    return V + H.mesh_normals(V, F) * noise, std
+
+
+def denoise_rows(names, work: Path, levels=DEPTH_NOISE, seed: int = 0) -> list[dict]:
+    """Bare clouds with depth noise, mapped by ``pcgeom param --denoise off`` and ``auto``,
+    every map judged on the clean mesh (each input point's uv on the clean triangles), beside
+    libigl's LSCM on the noisy mesh (judged the same way)."""
+    from pcgeom.apps.baselines import lscm
+
+    rows = []
+    for name in names:
+        V, F = (s := H.load_surface(name)).V, s.F
+        for level in levels:
+            Vn, std = depth_noisy(V, F, level, seed)
+            src = work / f"{name}_depth{level}.xyz"
+            np.savetxt(src, Vn)
+            row = {"surface": name, "points": len(V), "level": level}
+            for mode in ("off", "auto"):
+                out = work / f"{name}_depth{level}_{mode}_uv.npz"
+                run = H.pcgeom_cli(*H.param_args(src, out), "--denoise", mode)
+                score = H.score_file(out, V, F)
+                record = run["json"]["denoise"] or {}
+                row.update({f"{mode}_rad": score["rad"], f"{mode}_flip": score["flip_pct"],
+                            f"{mode}_s": run["wall_s"]})
+                if mode == "auto":
+                    row.update(noise=record.get("noise"), applied=record.get("applied"),
+                               noise_ratio=record.get("noise_std", float("nan")) / std)
+            U, seconds = H.timed(lscm, Vn, F)
+            score = H.score_map(U, V, F)
+            row.update(lscm_rad=score["rad"], lscm_flip=score["flip_pct"], lscm_s=seconds)
+            rows.append(row)
+            H.log(f"{name}, depth noise {level}: off {row['off_rad']:.4f} rad, auto "
+                  f"{row['auto_rad']:.4f} rad ({row['auto_flip']:.2f}%), LSCM {row['lscm_rad']:.4f}")
+    return rows
+
+
+def clean_denoise_rows(names, work: Path, repeats: int = 3) -> list[dict]:
+    """Clean bare clouds with ``--denoise off`` and ``auto``: quality and time (medians)."""
+    rows = []
+    for name in names:
+        s = H.load_surface(name)
+        src = work / f"{name}_clean.xyz"
+        np.savetxt(src, s.V)
+        row = {"surface": name, "points": len(s.V)}
+        for mode in ("off", "auto"):
+            runs = []
+            for k in range(repeats):
+                out = work / f"{name}_clean_{mode}_uv.npz"
+                run = H.pcgeom_cli(*H.param_args(src, out), "--denoise", mode)
+                runs.append({"wall_s": run["wall_s"], **H.score_file(out, s.V, s.F),
+                             "noise": (run["json"]["denoise"] or {}).get("noise"),
+                             "applied": (run["json"]["denoise"] or {}).get("applied")})
+            row.update({f"{mode}_rad": runs[0]["rad"], f"{mode}_flip": runs[0]["flip_pct"],
+                        f"{mode}_s": H.median(runs, "wall_s")})
+            if mode == "auto":
+                row.update(noise=runs[0]["noise"], applied=runs[0]["applied"])
+        rows.append(row)
+        H.log(f"{name} clean: off {row['off_rad']:.4f}, auto {row['auto_rad']:.4f} rad, "
+              f"{row['off_s']:.1f} / {row['auto_s']:.1f} s")
+    return rows
+
+
+def reconstruct_rows(names, work: Path, level: float = 0.5, seeds=(0, 1, 2)) -> list[dict]:
+    """``pcgeom reconstruct`` of bare clouds with depth noise, ``--denoise off`` and
+    ``auto``: distances from the mesh's vertices to the clean mesh, and from the clean mesh's
+    vertices to the mesh, in units of the noise's std."""
+    import igl
+    import trimesh
+
+    rows = []
+    for name in names:
+        V, F = (s := H.load_surface(name)).V, s.F
+        F64 = np.ascontiguousarray(F, dtype=np.int64)
+        for seed in seeds:
+            Vn, std = depth_noisy(V, F, level, seed)
+            src = work / f"{name}_depth{level}_{seed}.xyz"
+            np.savetxt(src, Vn)
+            row = {"surface": name, "level": level, "seed": seed,
+                   "points_max": float(np.sqrt(igl.point_mesh_squared_distance(Vn, V, F64)[0])
+                                       .max() / std)}
+            for mode in ("off", "auto"):
+                out = work / f"{name}_depth{level}_{seed}_{mode}.ply"
+                run = H.pcgeom_cli("reconstruct", src, "--out", out, "--denoise", mode,
+                                   check=False)
+                if run["error"]:
+                    row[f"{mode}_error"] = run["error"]
+                    continue
+                m = trimesh.load(out, process=False)
+                Vm = np.asarray(m.vertices, dtype=np.float64)
+                Fm = np.ascontiguousarray(m.faces, dtype=np.int64)
+                to_clean = np.sqrt(igl.point_mesh_squared_distance(Vm, V, F64)[0]) / std
+                from_clean = np.sqrt(igl.point_mesh_squared_distance(V, Vm, Fm)[0]) / std
+                row.update({f"{mode}_max": float(to_clean.max()),
+                            f"{mode}_mean": float(to_clean.mean()),
+                            f"{mode}_back": float(from_clean.max()),
+                            f"{mode}_loops": run["json"]["n_boundary_loops"],
+                            f"{mode}_s": run["wall_s"]})
+            rows.append(row)
+            H.log(f"reconstruct {name} depth {level} seed {seed}: off max "
+                  f"{row.get('off_max', float('nan')):.2f} std, auto max "
+                  f"{row.get('auto_max', float('nan')):.2f} std")
+    return rows
+
+
+def denoise_verdicts(rows) -> list[str]:
+    lines = []
+    for (name, level), (rad, flip) in DENOISE_TARGETS.items():
+        for r in rows:
+            if (r["surface"], r["level"]) == (name, level):
+                ok = r["auto_rad"] <= rad and r["auto_flip"] < flip
+                lines.append(f"- {name}, depth noise {level}, bare, `--denoise auto`: "
+                             f"{r['auto_rad']:.4f} rad, {r['auto_flip']:.2f}% flipped; want "
+                             f"<= {rad} rad, < {flip}% flipped: **{'PASS' if ok else 'MISS'}**")
+    return lines
+
+
 def heightfield(n: int, seed: int = 0) -> np.ndarray:
     xy = np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 2))
     bumps = [(0.5, -0.4, -0.3), (0.7, 0.3, 0.4), (0.4, 0.5, -0.5)]
@@ -141,7 +273,55 @@ def verdicts(rows) -> list[str]:
     return lines
 
 
-def render(quality, disk, noise, scale, argv, plot: str | None) -> str:
+def render_denoise(depth, clean, recon) -> list[str]:
+    out = []
+    if depth:
+        out += ["Depth noise (Gaussian along the clean mesh's vertex normals, in mean edge "
+                "lengths), bare clouds, `fast`, each input point's uv judged on the clean "
+                "mesh's triangles; `--denoise off` is the map of the noisy points, `auto` "
+                "fits the surface first when the estimated noise exceeds 0.2 spacings "
+                "(spacing: median nearest-neighbour distance in the tangent plane, about "
+                "0.5-0.8 mean edge lengths); LSCM is libigl's on the noisy mesh, judged the "
+                "same way.", "",
+                *H.table([("surface", "{surface}"), ("noise, edges", "{level}"),
+                          ("estimated, spacings", lambda r: f"{r['noise']:.2f}"),
+                          ("estimate / true std", lambda r: f"{r['noise_ratio']:.2f}"),
+                          ("off, rad", "{off_rad:.4f}"), ("flipped", "{off_flip:.2f}%"),
+                          ("auto, rad", "{auto_rad:.4f}"), ("flipped", "{auto_flip:.2f}%"),
+                          ("LSCM noisy mesh, rad", "{lscm_rad:.4f}"),
+                          ("flipped", "{lscm_flip:.2f}%"),
+                          ("wall s off / auto", "{off_s:.1f} / {auto_s:.1f}")], depth),
+                "", *denoise_verdicts(depth), ""]
+    if clean:
+        out += ["Clean bare clouds, `--denoise off` and `auto` (auto estimates the noise and "
+                "leaves a clean cloud as it is; wall time the median of 3 runs):", "",
+                *H.table([("surface", "{surface}"), ("points", "{points}"),
+                          ("estimated noise, spacings", lambda r: f"{r['noise']:.3f}"),
+                          ("denoised", "{applied}"),
+                          ("off, rad", "{off_rad:.4f}"), ("flipped", "{off_flip:.2f}%"),
+                          ("auto, rad", "{auto_rad:.4f}"), ("flipped", "{auto_flip:.2f}%"),
+                          ("wall s off / auto", "{off_s:.1f} / {auto_s:.1f}")], clean), ""]
+    if recon:
+        out += ["`pcgeom reconstruct` of bare clouds with depth noise (defaults, 5000 "
+                "vertices): the largest and mean distance from the mesh's vertices to the "
+                "clean mesh, and the largest from the clean mesh's vertices to the mesh (the "
+                "rim: the detected loops run inside the clean rim), in units of the noise's "
+                "std; the noisy points themselves lie up to the 'points' column from it.", "",
+                *H.table([("surface", "{surface}"), ("seed", "{seed}"),
+                          ("points, max", "{points_max:.2f}"),
+                          ("off: mesh max", lambda r: f"{r.get('off_max', float('nan')):.2f}"),
+                          ("mean", lambda r: f"{r.get('off_mean', float('nan')):.2f}"),
+                          ("clean to mesh", lambda r: f"{r.get('off_back', float('nan')):.2f}"),
+                          ("loops", lambda r: r.get("off_loops", "-")),
+                          ("auto: mesh max", lambda r: f"{r.get('auto_max', float('nan')):.2f}"),
+                          ("mean", lambda r: f"{r.get('auto_mean', float('nan')):.2f}"),
+                          ("clean to mesh", lambda r: f"{r.get('auto_back', float('nan')):.2f}"),
+                          ("loops", lambda r: r.get("auto_loops", "-"))], recon), ""]
+    return out
+
+
+def render(quality, disk, noise, scale, argv, plot: str | None, depth=(), clean=(),
+           recon=()) -> str:
     import os
     import platform
 
@@ -180,6 +360,7 @@ def render(quality, disk, noise, scale, argv, plot: str | None) -> str:
                 "", "A triangle the noise turned over (its normal against the clean surface's) "
                 "is flipped by any map that keeps the noise's tangential part; LSCM avoids it "
                 "only because it is solved on that very mesh.", ""]
+    out += render_denoise(depth, clean, recon)
     if scale:
         out += ["Time and peak memory against N (three-bump height field, uniform random "
                 "points, no normals, `fast`):", "",
@@ -202,11 +383,24 @@ def main(argv=None) -> int:
                    help="surfaces on which presets other than fast (minutes each) also run")
     p.add_argument("--disk", nargs="*", default=["peaks3", "face_human_choi"])
     p.add_argument("--noise", nargs="*", default=["face_human_choi", "face_3holes_small_choi"])
+    p.add_argument("--depth-noise", nargs="*",
+                   default=["face_human_choi", "face_3holes_small_choi"],
+                   help="surfaces given depth noise of 0.25 / 0.5 / 1.0 mean edge lengths, "
+                        "mapped with --denoise off and auto")
+    p.add_argument("--clean-denoise", nargs="*",
+                   default=["peaks3", "face_3holes_small_choi", "face_human_choi",
+                            "peaks_7holes_choi"],
+                   help="clean bare clouds mapped with --denoise off and auto")
+    p.add_argument("--reconstruct-noise", nargs="*", default=["face_3holes_small_choi"],
+                   help="surfaces reconstructed from depth noise 0.5, --denoise off and auto")
     p.add_argument("--sizes", nargs="*", type=int,
                    default=[5_000, 20_000, 50_000, 100_000, 300_000, 1_000_000])
     p.add_argument("--section", default="bench_scans",
                    help="the marked section of --out to replace (bench_scans_large for a run "
-                        "of the largest sizes alone: --surfaces --noise --disk --sizes 1000000)")
+                        "of the largest sizes alone: --surfaces --noise --disk --sizes 1000000 "
+                        "--depth-noise --clean-denoise --reconstruct-noise; "
+                        "bench_scans_denoise for the denoising rows alone: --surfaces --noise "
+                        "--disk --sizes)")
     args = p.parse_args(argv)
     available = [s for s in args.surfaces if H.available(s)]
     with tempfile.TemporaryDirectory() as tmp:
@@ -215,6 +409,10 @@ def main(argv=None) -> int:
         disk = disk_rows([s for s in args.disk if s in available], args.presets, work,
                          args.slow_surfaces)
         noise = noise_rows([s for s in args.noise if H.data_file(s).is_file()], work)
+        depth = denoise_rows([s for s in args.depth_noise if H.data_file(s).is_file()], work)
+        clean = clean_denoise_rows([s for s in args.clean_denoise if H.available(s)], work)
+        recon = reconstruct_rows([s for s in args.reconstruct_noise if H.data_file(s).is_file()],
+                                 work)
         scale = scale_rows(args.sizes, work) if args.sizes else []
     plot = None
     if len(scale) > 1:  # the repository's figures for its BENCHMARKS.md, else next to --out
@@ -224,7 +422,7 @@ def main(argv=None) -> int:
         plot_scale(scale, folder / f"{stem}_time_vs_n.png")
         plot = (folder / f"{stem}_time_vs_n.png").relative_to(home).as_posix()
     H.write_section(args.out, args.section,
-                    render(quality, disk, noise, scale, argv, plot))
+                    render(quality, disk, noise, scale, argv, plot, depth, clean, recon))
     return 0
 
 

@@ -248,9 +248,9 @@ def test_example_peaks3_writes_map(tmp_path, monkeypatch, capsys, tiny):
 
     V, F = peaks_surface("peaks3")
     with np.load(tmp_path / "peaks3_uv.npz", allow_pickle=False) as z:
-        assert sorted(z.files) == ["center", "config_json", "domain_json", "faces",
-                                   "fingerprint", "history_json", "lambda_inv", "scale",
-                                   "seconds", "seed", "uv", "version"]
+        assert sorted(z.files) == ["center", "config_json", "denoise_json", "domain_json",
+                                   "faces", "fingerprint", "history_json", "lambda_inv",
+                                   "scale", "seconds", "seed", "uv", "version"]
         uv, lam = z["uv"], z["lambda_inv"]
         assert uv.shape == (len(V), 2) and uv.dtype == np.float64
         assert np.isfinite(uv).all() and uv.std(axis=0).min() > 1e-3  # not collapsed
@@ -275,8 +275,11 @@ def test_example_peaks3_writes_map(tmp_path, monkeypatch, capsys, tiny):
     assert lines[1].startswith("preset fast, domain free, device cpu, seed 0: ")
     assert lines[2] == ("method localmesh, normals estimated (a cloud without normals may fold "
                         "where two sheets of its surface touch)")
+    # fast's --denoise auto estimates the noise of the clean example and leaves it as it is.
+    assert re.fullmatch(r"noise: 0\.0\d\d spacings estimated \(std \S+, spacing \S+\); not "
+                        r"denoised \(--denoise STRENGTH to force it\)", lines[3])
     assert re.fullmatch(r"angle distortion: mean \d\.\d{4} rad over 11250 triangles, "
-                        r"\d+ flipped \(\d+\.\d\d%\)", lines[3])
+                        r"\d+ flipped \(\d+\.\d\d%\)", lines[4])
 
 
 def test_mesh_input_json_ply_and_plot(tmp_path, capsys, tiny):

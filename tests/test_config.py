@@ -189,7 +189,7 @@ def test_config_from_dict_missing_keys_take_the_defaults():
 
 
 def test_config_from_dict_rejects_unknown_keys_listing_the_known_fields():
-    known = ("disk_map, domain_map, domain_samples, dtype, free_map, init_map, lambda_net, "
+    known = ("denoise, disk_map, domain_map, domain_samples, dtype, free_map, init_map, lambda_net, "
              "local_mesh, "
              "max_stages, optimizer, param_net, refine, schedule, weights")
     with pytest.raises(InputError) as info:
