@@ -177,11 +177,13 @@ def fit_heights(X, width: float, spacing: float, neighbours: int = 96,
         x0 = X[s:s + _CHUNK]
         P = X[nb[s:s + _CHUNK]]  # (n, k, 3)
         w = np.exp(-dist[s:s + _CHUNK] ** 2 / (2 * rho[s:s + _CHUNK, None] ** 2))  # (n, k)
-        if normals is not None:
-            same = np.einsum("nd,nkd->nk", normals[s:s + _CHUNK], normals[nb[s:s + _CHUNK]])
-            w = np.where(same > 0, w, 0.0)
         if exclude is not None:
             w = np.where(exclude[nb[s:s + _CHUNK]], 0.0, w)
+        if normals is not None:
+            same = np.einsum("nd,nkd->nk", normals[s:s + _CHUNK], normals[nb[s:s + _CHUNK]])
+            # A point whose normal few neighbours share (a stray) is fitted from them all.
+            alone = (np.where(same > 0, w, 0.0).sum(axis=1) < 3.0)[:, None]
+            w = np.where((same > 0) | alone, w, 0.0)
         centre = np.einsum("nk,nkd->nd", w, P) / w.sum(axis=1, keepdims=True)
         Q = P - centre[:, None]
         _, frame = np.linalg.eigh(np.einsum("nk,nki,nkj->nij", w, Q, Q))  # columns: n, t1, t2
@@ -225,7 +227,7 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
         off or not a surface), ``noise_std`` and ``spacing`` (the cloud's units),
         ``applied``, ``skipped`` (why not: ``"below the threshold"``, ``"not a surface"``),
         ``width`` (of the fits, in spacings), ``same_sheet`` (normals kept the fits on one
-        sheet), ``outliers`` (strays: flagged by :func:`pcgeom.cloud.find_outliers`, more than 5
+        sheet), ``strays`` (flagged by :func:`pcgeom.cloud.find_outliers`, more than 5
         noise std off the fitted surface, left where they are), ``moved`` (mean distance moved,
         in spacings), ``seconds``.
     """
@@ -233,7 +235,7 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
     X = np.asarray(X, dtype=np.float64)
     record = {"stage": "denoise", "mode": config.mode, "applied": False, "noise": None,
               "noise_std": None, "spacing": None, "width": config.width,
-              "same_sheet": normals is not None, "outliers": 0, "skipped": None, "moved": 0.0,
+              "same_sheet": normals is not None, "strays": 0, "skipped": None, "moved": 0.0,
               "seconds": 0.0}
     if config.mode == "off":
         return X, record
@@ -271,7 +273,7 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
     # where it was (strays stay where they are, for the map's own outlier test).
     keep = outlier & (np.abs(step) > 5 * est.std)
     Y = X + np.where(keep, 0.0, step)[:, None] * d
-    record["outliers"] = int(keep.sum())
+    record["strays"] = int(keep.sum())
     moved = float(np.linalg.norm(Y - X, axis=1).mean() / est.spacing)
     record.update(applied=True, width=width, moved=moved, seconds=time.perf_counter() - t0)
     return Y, record

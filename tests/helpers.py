@@ -46,3 +46,9 @@ def assert_cli_fails(capsys, argv: list[str], message: str) -> None:
     assert err.startswith("pcgeom: error: ")
     assert err.count("\n") == 1, err
     assert message in err, err
+
+
+def map_record(result) -> dict:
+    """The map's first history record: the one after the denoising's, when the run fitted a
+    noisy cloud first (``--denoise``), else the first."""
+    return next(r for r in result.history if r.get("stage") != "denoise")

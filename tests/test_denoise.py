@@ -91,7 +91,7 @@ def test_strays_stay_where_they_are_and_a_volume_is_not_fitted():
     strays = np.array([[5.0, 5.0, 10.0], [20.0, 12.0, -8.0], [14.0, 3.0, 6.0]])
     Y, record = denoise_points(np.concatenate([X, strays]), ON)
     np.testing.assert_array_equal(Y[-3:], strays)
-    assert record["outliers"] == 3 and np.abs(Y[:-3, 2]).mean() < 0.15
+    assert record["strays"] == 3 and np.abs(Y[:-3, 2]).mean() < 0.15
     volume = np.random.default_rng(0).uniform(size=(2000, 3))
     Y, record = denoise_points(volume, ON)
     assert np.array_equal(Y, volume) and record["skipped"] == "not a surface"
