@@ -180,7 +180,7 @@ def parametrize(
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
     kind = choose_map(domain, config, bool(landmarks))
     log(f"{len(P)} points onto {domain.label}: the {kind} map", enabled=progress)
-    Xn, denoised = denoise_points(Xn, config.denoise, normals)
+    Xn, denoised = _denoise(Xn, normals, config, lm_points)
     # The record in input units; it is the run's first stage when it moved the points.
     denoised.update({k: denoised[k] * scale for k in ("noise_std", "spacing")
                      if denoised[k] is not None})
@@ -281,6 +281,21 @@ def parametrize(
         history.append(record)
         report(record, U)
     return result(_numpy(U), _numpy(lam_inv), history)
+
+
+def _denoise(Xn: np.ndarray, normals, config: ParamConfig, lm_points: list) -> tuple:
+    """:func:`pcgeom.denoise.denoise_points` of the normalized cloud; landmark points (in
+    place) move with their nearest cloud point, so that each still acts through the point it
+    named."""
+    fitted, record = denoise_points(Xn, config.denoise, normals)
+    if record["applied"] and lm_points:
+        from scipy.spatial import cKDTree
+
+        tree, shift = cKDTree(Xn), fitted - Xn
+        for k, p in enumerate(lm_points):
+            nearest = tree.query(p.cpu().double().numpy())[1]
+            lm_points[k] = p + torch.as_tensor(shift[nearest], device=p.device, dtype=p.dtype)
+    return fitted, record
 
 
 def _warn_flips(flips: dict | None) -> None:
