@@ -328,10 +328,11 @@ class DenoiseConfig:
     0.34): 0.0266 / 0.0266 / 0.0279. 0: the width is :attr:`width` exactly (``--denoise
     STRENGTH``)."""
     threshold: float = 0.2
-    """``"auto"`` denoises when the estimated noise std exceeds this many spacings. Clean
-    surfaces read 0.012 (face_3holes_small_choi), 0.041 (face_human_choi), 0.044
-    (peaks_7holes_choi, 1850 points), 0.094 (three peaks on a 16 x 16 grid), 0.155 (12 x 12);
-    depth noise of 0.25 mean edge lengths on the two faces reads 0.32 and 0.48."""
+    """``"auto"`` denoises when the estimated noise std (fits of :attr:`noise_neighbours`)
+    exceeds this many spacings. Clean surfaces read 0.005 (three peaks), 0.012
+    (face_3holes_small_choi), 0.029 (face_human_choi), 0.044 (peaks_7holes_choi, 1850
+    points), 0.094 (three peaks on a 16 x 16 grid), 0.155 (12 x 12); depth noise of 0.25 mean
+    edge lengths on the two faces reads 0.32 and 0.47."""
     neighbours: int = 96
     """Points each fit may use (the Gaussian weights decide how much each counts)."""
     noise_neighbours: int = 16
