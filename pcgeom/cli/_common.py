@@ -143,7 +143,7 @@ def print_noise(record: dict | None) -> None:
     """The human line for a run's noise estimate and denoising (``ParamResult.denoise``)."""
     if not record or record.get("noise") is None:
         return
-    done = (f"denoised (fit width {record['width']:g} spacings, points moved "
+    done = (f"denoised (fit width {record['width']:.2f} spacings, points moved "
             f"{record['moved']:.2f} spacings on average, {record['seconds']:.1f} s)"
             if record["applied"] else "not denoised (--denoise STRENGTH to force it)")
     print(f"noise: {record['noise']:.3f} spacings estimated (std {record['noise_std']:.4g}, "
