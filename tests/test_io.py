@@ -60,7 +60,7 @@ def test_io_exports():
 
     assert set(pio.__all__) == {"InputError", "PointCloud", "SUPPORTED_EXTENSIONS", "read_points",
                                 "write_ply_atomic", "check_writable", "write_atomic",
-                                "save_npz_atomic", "ParamResult", "LandmarkPair",
+                                "write_files_atomic", "save_npz_atomic", "ParamResult", "LandmarkPair",
                                 "read_landmarks"}
     assert all(hasattr(pio, name) for name in pio.__all__)
     # Array preparation lives in pcgeom.cloud, not here.
@@ -363,7 +363,7 @@ def test_npz_writer_leaves_nothing_on_failure(tmp_path):
 def test_ply_writer_leaves_nothing_on_failure_mid_write(tmp_path, monkeypatch):
     import pcgeom.io.points as points_module
 
-    def half_write(f, V, F, N):
+    def half_write(f, V, F, N, UV=None):
         f.write(b"ply\nformat binary_little_endian 1.0\n")
         raise OSError("disk full")
 
