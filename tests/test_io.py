@@ -374,6 +374,25 @@ def test_ply_writer_leaves_nothing_on_failure_mid_write(tmp_path, monkeypatch):
     assert _ls(tmp_path) == []
 
 
+def test_files_written_together_leave_none_on_failure(tmp_path):
+    """write_files_atomic: all files appear or none; earlier versions stay until all succeed."""
+    from pcgeom.io import write_files_atomic
+
+    paths = [tmp_path / name for name in ("a.obj", "a.mtl", "a.png")]
+    write_files_atomic({p: (lambda f, p=p: f.write(p.name.encode())) for p in paths})
+    assert [p.read_bytes() for p in paths] == [b"a.obj", b"a.mtl", b"a.png"]
+
+    def fails(f):
+        f.write(b"half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        write_files_atomic({paths[0]: lambda f: f.write(b"new"), paths[1]: lambda f: f.write(b"new"),
+                            paths[2]: fails})
+    assert [p.read_bytes() for p in paths] == [b"a.obj", b"a.mtl", b"a.png"]
+    assert _ls(tmp_path) == ["a.mtl", "a.obj", "a.png"]  # no temporary left
+
+
 def test_failed_write_keeps_previous_output(tmp_path, monkeypatch):
     V, F = _cloud()
     write_ply_atomic(tmp_path / "out.ply", V, F)
