@@ -462,7 +462,7 @@ def _draw_surface(ax, Y: np.ndarray, F: np.ndarray, rgb: np.ndarray) -> None:
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
     extent = hi - lo
-    ax.set_box_aspect(np.maximum(extent, 0.05 * extent.max()))  # true proportions
+    ax.set_box_aspect(np.maximum(extent, 0.05 * extent.max()), zoom=1.1)  # true proportions
     ax.view_init(elev=50, azim=-70)
     ax.set_axis_off()
 
@@ -542,7 +542,7 @@ def plot_checker(V, F, uv, path, squares: int | None = None, values=None,
         rgb[~np.isfinite(values)] = 0.6
         _draw_surface(ax2, Y, F, rgb)
         fig.colorbar(ScalarMappable(norm=norm, cmap="viridis"), ax=ax2, shrink=0.7,
-                     label=value_label + " (99th percentile at the top)")
+                     label="clipped at the 99th percentile")
         ax2.set_title(value_label)
     if title:
         fig.suptitle(title)
