@@ -60,8 +60,8 @@ def test_io_exports():
 
     assert set(pio.__all__) == {"InputError", "PointCloud", "SUPPORTED_EXTENSIONS", "read_points",
                                 "write_ply_atomic", "check_writable", "write_atomic",
-                                "write_files_atomic", "save_npz_atomic", "ParamResult", "LandmarkPair",
-                                "read_landmarks"}
+                                "write_files_atomic", "save_npz_atomic", "ParamResult",
+                                "LandmarkPair", "read_landmarks"}
     assert all(hasattr(pio, name) for name in pio.__all__)
     # Array preparation lives in pcgeom.cloud, not here.
     for name in ("validate_points", "deduplicate", "normalize"):
@@ -387,8 +387,8 @@ def test_files_written_together_leave_none_on_failure(tmp_path):
         raise OSError("disk full")
 
     with pytest.raises(OSError, match="disk full"):
-        write_files_atomic({paths[0]: lambda f: f.write(b"new"), paths[1]: lambda f: f.write(b"new"),
-                            paths[2]: fails})
+        write_files_atomic({paths[0]: lambda f: f.write(b"new"),
+                            paths[1]: lambda f: f.write(b"new"), paths[2]: fails})
     assert [p.read_bytes() for p in paths] == [b"a.obj", b"a.mtl", b"a.png"]
     assert _ls(tmp_path) == ["a.mtl", "a.obj", "a.png"]  # no temporary left
 

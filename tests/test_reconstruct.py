@@ -548,7 +548,8 @@ def test_a_textured_mesh_whose_writing_fails_leaves_none_of_its_files(tmp_path, 
 
     monkeypatch.setitem(write_mesh.__globals__, "write_files_atomic", failing)
     with pytest.raises(OSError, match="disk full"):
-        write_mesh(tmp_path / "m.obj", V * 2, [[0, 1, 2]], uv=uv, texture=parse_texture("checker:3"))
+        write_mesh(tmp_path / "m.obj", V * 2, [[0, 1, 2]], uv=uv,
+                   texture=parse_texture("checker:3"))
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
     with pytest.raises(ValueError, match="texture: needs uv"):
         write_mesh(tmp_path / "n.obj", V, [[0, 1, 2]], texture=texture)

@@ -12,8 +12,9 @@ from types import ModuleType
 from ..errors import InputError
 
 __all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "int_at_least",
-           "seed", "texture_spec", "add_texture_option", "texture_line", "distinct_paths", "add_cloud_and_map", "load_free_map", "print_angles",
-           "flip_places", "add_command", "standalone_parser", "run_command"]
+           "seed", "texture_spec", "add_texture_option", "texture_line", "distinct_paths",
+           "add_cloud_and_map", "load_free_map", "print_angles", "flip_places", "add_command",
+           "standalone_parser", "run_command"]
 
 EXIT_OK = 0
 EXIT_FAILURE = 1  # the run itself failed (I/O error, missing optional dependency)
