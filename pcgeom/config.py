@@ -246,14 +246,17 @@ class LocalMeshConfig:
     """Neighbour counts of the neighbourhood PCA (the surface test, and the normals of a cloud
     without them): each point's is the largest whose neighbours lie within
     :attr:`normal_tolerance` as flat as at its flattest (:func:`pcgeom.cloud.adaptive_pca`).
-    A pleated sheet whose sheets lie 2 spacings apart (6000 points, bare): 16 neighbours
-    0.103 rad, 1.24% flipped; these 0.0114, 0.01% (LSCM on its mesh 0.0072); sheets 1.5
-    spacings apart fail the surface test with 16. face_human_choi bare: 0.0380 -> 0.0364 rad,
+    A pleated sheet whose sheets lie 2 spacings apart (:func:`pcgeom.synthetic.pleated_sheet`,
+    6000 points, bare): 16 neighbours 0.174 rad, 2.9% flipped; these 0.0131, no flip (LSCM on
+    its true mesh 0.0020: the folds, one spacing in radius, and the rim keep the rest); 2.5
+    spacings: 0.058, 0.23% -> 0.0135, none; 1.5 spacings fail the surface test with 16 and
+    map at 0.28 rad, 3.6% flipped with these. face_human_choi bare: 0.0380 -> 0.0364 rad,
     3.45% -> 2.61% flipped."""
     normal_tolerance: float = 0.03
     """How much more surface variation than its flattest scale a point's chosen scale may
-    have (on the pleat at 2 spacings: 0.01: 0.0099 rad, but face_human_choi 0.058; 0.06:
-    0.0128, face_human_choi 0.032)."""
+    have. Smaller suits clean folds, larger noisy scans (the pleat at 2 spacings, earlier
+    sampling: 0.01: 0.0099 rad, but face_human_choi 0.058; 0.03: 0.0114, 0.036; 0.06: 0.0128,
+    0.032)."""
     refine_steps: int = 0
     """Steps of the LEG refinement (:class:`RefineConfig`, same-sheet pairs) after LSCM.
     0: none. Measured on face_human_choi from a 0.040 rad local-mesh map: 300 steps raise it to

@@ -591,12 +591,14 @@ def pleated_sheet(n: int = 6000, folds: int = 4, gap: float = 2.0, *, width: flo
     The cross-section is a serpentine of ``folds + 1`` straight runs joined by half circles of
     radius ``gap * spacing / 2`` (:func:`_serpentine`); the surface sweeps it along y over
     ``width``. It is developable: its points are sampled area-uniformly (a shifted R2
-    sequence) in the rectangle of arc length by height, which is also the true map.
+    sequence, and the sides evenly) in the rectangle of arc length by height, which is also
+    the true map.
 
     Parameters
     ----------
     n : int
-        Points, at least 100.
+        Points of the rectangle's sample, at least 100 (a few are dropped near its sides, and
+        the sides' own points added).
     folds : int
         Half-circle folds, at least 1.
     gap : float
@@ -627,17 +629,30 @@ def pleated_sheet(n: int = 6000, folds: int = 4, gap: float = 2.0, *, width: flo
     gap, width = float(gap), float(width)
     if not gap > 0 or not width > 0:
         raise ValueError(f"gap, width: expected positive numbers, got {gap!r}, {width!r}")
+    from scipy.spatial import cKDTree
+
     rng = np.random.default_rng(seed)
-    # The rectangle [0, 1] x [0, width], sampled as the square's R2 sequence stretched.
-    unit = (_r2_square(n, rng) + 1.0) / 2.0
-    uv = unit * [1.0, width]
-    F = Delaunay(uv * [1.0, 1.0]).simplices.astype(np.int64)
+    # The rectangle [0, 1] x [0, width]: its sides sampled evenly (so that the Delaunay
+    # triangulation has no slivers along them), its inside by the square's R2 sequence
+    # stretched, without the samples closer than half a spacing to a side's.
+    h = np.sqrt(width / n)
+    sides = []
+    for (x0, y0), (x1, y1) in (((0, 0), (1, 0)), ((1, 0), (1, width)),
+                               ((1, width), (0, width)), ((0, width), (0, 0))):
+        m = max(int(np.ceil(np.hypot(x1 - x0, y1 - y0) / h)), 1)
+        t = np.arange(m)[:, None] / m
+        sides.append([x0, y0] + t * [x1 - x0, y1 - y0])
+    rim = np.vstack(sides)
+    inside = ((_r2_square(n, rng) + 1.0) / 2.0) * [1.0, width]
+    inside = inside[cKDTree(rim).query(inside)[0] > 0.5 * h]
+    inside = inside[(inside > 0.5 * h).all(axis=1) & (inside < [1.0, width] - 0.5 * h).all(axis=1)]
+    uv = np.vstack([inside, rim])
+    F = Delaunay(uv).simplices.astype(np.int64)
     e1, e2 = uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]
     area2 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    F = F[np.abs(area2) > 1e-12 * width]  # collinear side points
+    area2 = area2[np.abs(area2) > 1e-12 * width]
     F[area2 < 0] = F[area2 < 0][:, ::-1]
-    # Slivers along the rectangle's sides (Delaunay's hull) are not the surface's triangles.
-    sq = sum(((uv[F[:, (q + 1) % 3]] - uv[F[:, q]]) ** 2).sum(axis=1) for q in range(3))
-    F = F[2.0 * np.sqrt(3.0) * np.abs(area2) / np.maximum(sq, 1e-300) > 0.1]
     spacing = _mean_edge(np.column_stack([uv, np.zeros(len(uv))]), F)
     radius = gap * spacing / 2.0
     run = (1.0 - folds * np.pi * radius) / (folds + 1)
