@@ -1,13 +1,15 @@
 """Draw the figures of docs/choosing_parameters.md with pcgeom's own functions.
 
     python docs/make_figures.py            # writes docs/fig_*.png, prints the measured figures
+    python docs/make_figures.py --only fig_checker.png   # one of them
 
 About two minutes on two CPU cores: the README's picture (`pcgeom param --example peaks3`,
 seconds), three network-only maps of a 900-point three-peaks patch (one stage of the
 `networks` preset from a random start, for three sigma), a few HAND evaluations, and the
-boundary loops of a holed patch for several h. The printed figures are the ones
-docs/choosing_parameters.md quotes. PNGs are stored with a 128-colour palette to keep the
-repository small.
+boundary loops of a holed patch for several h, and the README's reconstructed scan with its
+checkerboard (face_3holes_small_choi from ../shared/data, skipped when absent). The printed
+figures are the ones docs/choosing_parameters.md and the README quote. PNGs are stored with a
+128-colour palette to keep the repository small.
 """
 
 from __future__ import annotations
@@ -220,11 +222,45 @@ def denoise_figure(path: Path) -> list[dict]:
     return rows
 
 
+def checker_picture(path: Path, data: Path) -> None:
+    """The README's reconstructed scan with its checkerboard: the commands the README shows
+    (``pcgeom reconstruct`` of face_3holes_small_choi with ``--texture checker:16``), the OBJ
+    read back with trimesh and drawn with its texture coordinates, beside the angle distortion
+    of the mesh's map per triangle. Skipped when the shared surface is absent."""
+    import tempfile
+
+    import trimesh
+
+    from pcgeom import cli
+    from pcgeom.apps.plot import plot_checker
+
+    scan = data / "face_3holes_small_choi.ply"
+    if not scan.exists():
+        print(f"{path.name}: skipped, {scan} is absent")
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        mesh_path = Path(tmp) / "face_mesh.obj"
+        code = cli.main(["reconstruct", str(scan), "--target-vertices", "6000", "--texture",
+                         "checker:16", "--out", str(mesh_path), "--quiet"])
+        assert code == 0, code
+        mesh = trimesh.load(mesh_path, process=False)
+        V, F, uv = mesh.vertices, mesh.faces, mesh.visual.uv
+    angles = angle_distortion(V, F, uv)  # angles: the same in uv as in the map
+    print(f"{path.name}: {len(V)} vertices, {len(F)} triangles; angle distortion of the "
+          f"mesh's map: mean {angles.mean_abs:.4f} rad, {angles.flipped} flipped")
+    plot_checker(V, F, uv, path, squares=16, values=angles.per_corner.mean(axis=1),
+                 value_label="angle distortion per triangle (rad)",
+                 title="face_3holes_small_choi reconstructed (pcgeom reconstruct --texture "
+                       "checker:16)")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(DOCS), help="folder of the PNGs (default: docs/)")
-    parser.add_argument("--only", nargs="*", metavar="NAME",
-                        help="draw only these figures (e.g. fig_denoise.png)")
+    parser.add_argument("--data", default=str(DOCS.parent.parent / "shared" / "data"),
+                        help="folder of the shared test surfaces (default: ../shared/data)")
+    parser.add_argument("--only", metavar="NAME.png",
+                        help="draw this figure only (e.g. fig_checker.png)")
     args = parser.parse_args(argv)
     out = Path(args.out)
     torch.manual_seed(0)
@@ -237,12 +273,14 @@ def main(argv=None) -> int:
         "fig_alpha.png": alpha_curve,
         "fig_h.png": h_sweep,
         "fig_denoise.png": denoise_figure,
+        "fig_checker.png": lambda path: checker_picture(path, Path(args.data)),
     }
+    if args.only is not None:
+        figures = {args.only: figures[args.only]}
     for name, draw in figures.items():
-        if args.only and name not in args.only:
-            continue
         draw(out / name)
-        shrink_png(out / name)
+        if (out / name).exists():
+            shrink_png(out / name)
     print(f"done in {time.perf_counter() - start:.0f} s")
     return 0
 

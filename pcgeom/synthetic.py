@@ -1,5 +1,6 @@
 """Synthetic real-scan stand-ins with ground truth: a holey, noisy height field with strays,
-and a simulated single-view range scan of a triangle mesh.
+a simulated single-view range scan of a triangle mesh, and a pleated sheet whose folds bring
+its sheets within a few point spacings of each other.
 
 Both generators are deterministic for a given ``seed`` and return a small frozen dataclass
 of NumPy arrays: the points as a scanner would deliver them (noise and strays included, one
@@ -18,7 +19,8 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["HeightFieldScan", "RangeScan", "holey_heightfield", "range_scan", "HEIGHT_BUMPS"]
+__all__ = ["HeightFieldScan", "RangeScan", "PleatedSheet", "holey_heightfield", "range_scan",
+           "pleated_sheet", "HEIGHT_BUMPS"]
 
 HEIGHT_BUMPS = (
     (0.45, -0.45, -0.35, 0.35),
@@ -98,6 +100,29 @@ class RangeScan:
     """(3,) float64: where the rays start."""
     spacing: float
     """Mean edge length of the reference triangles before noise: the unit of ``noise``."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PleatedSheet:
+    """What :func:`pleated_sheet` returns: a developable surface folded like an accordion."""
+
+    points: np.ndarray
+    """(N, 3) float64 points on the surface (no noise)."""
+    normals: np.ndarray
+    """(N, 3) float64 unit normals, oriented consistently along the surface (so on facing
+    sheets of a fold they point towards each other or away from each other)."""
+    faces: np.ndarray
+    """(M, 3) int64 reference triangles: the Delaunay triangulation of ``uv_true``,
+    counter-clockwise there. Used to evaluate a map, never to make one."""
+    uv_true: np.ndarray
+    """(N, 2) float64: each point's arc length across the folds and its height along them.
+    The surface is isometric to this rectangle: a similarity of it is a perfect map."""
+    spacing: float
+    """Mean edge length of the reference triangles: the unit of ``gap``."""
+    gap: float
+    """Distance between facing sheets, in spacings (each fold's radius is half of it)."""
+    sheet: np.ndarray
+    """(N,) int64: the straight run (0 .. folds) each point lies on; -1 on a fold."""
 
 
 def _r2_square(n: int, rng: np.random.Generator) -> np.ndarray:
@@ -524,3 +549,118 @@ def range_scan(V, F, *, viewpoint=None, resolution: tuple[int, int] = (120, 120)
         viewpoint=viewpoint,
         spacing=spacing,
     )
+
+
+def _serpentine(s: np.ndarray, run: float, radius: float, folds: int
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The accordion's cross-section at arc lengths ``s``: straight runs of length ``run``
+    along x, alternately rightwards and leftwards, each joined to the next by a half circle of
+    ``radius`` turning upwards. Returns (x, z), the unit normal (nx, nz) on the side the
+    first run's +z faces, and each point's run (-1 on a half circle)."""
+    period = run + np.pi * radius
+    k = np.minimum((s // period).astype(np.int64), folds)  # the run (and the fold after it)
+    t = s - k * period  # arc length since run k began
+    direction = np.where(k % 2 == 0, 1.0, -1.0)  # run k goes along +x (even) or -x (odd)
+    x0 = np.where(k % 2 == 0, 0.0, run)
+    z0 = 2.0 * radius * k
+    on_run = (t <= run) | (k == folds)
+    x = np.where(on_run, x0 + direction * np.minimum(t, run), 0.0)
+    z = np.where(on_run, z0, 0.0)
+    nx = np.zeros_like(s)
+    nz = np.where(on_run, direction, 0.0)  # +z on even runs, -z on odd ones
+    # A half circle about (x0 + direction * run, z0 + radius), from angle -pi/2 through 0
+    # (a rightward run's end) or from -pi/2 through pi (a leftward one's).
+    phi = (t - run) / radius
+    turn = ~on_run
+    cx = x0 + direction * run
+    ang = -np.pi / 2 + direction * phi
+    x = np.where(turn, cx + radius * np.cos(ang), x)
+    z = np.where(turn, z0 + radius + radius * np.sin(ang), z)
+    # The normal turns with the curve: towards the centre after a rightward run (+z there),
+    # away from it after a leftward one (-z there).
+    nx = np.where(turn, -direction * np.cos(ang), nx)
+    nz = np.where(turn, -direction * np.sin(ang), nz)
+    return np.column_stack([x, z]), np.column_stack([nx, nz]), np.where(on_run, k, -1)
+
+
+def pleated_sheet(n: int = 6000, folds: int = 4, gap: float = 2.0, *, width: float = 1.0,
+                  seed: int = 0) -> PleatedSheet:
+    """A sheet folded like an accordion: ``folds`` half-circle folds whose facing sheets lie
+    ``gap`` point spacings apart, as the walls of a sulcus or a closed eyelid.
+
+    The cross-section is a serpentine of ``folds + 1`` straight runs joined by half circles of
+    radius ``gap * spacing / 2`` (:func:`_serpentine`); the surface sweeps it along y over
+    ``width``. It is developable: its points are sampled area-uniformly (a shifted R2
+    sequence, and the sides evenly) in the rectangle of arc length by height, which is also
+    the true map.
+
+    Parameters
+    ----------
+    n : int
+        Points of the rectangle's sample, at least 100 (a few are dropped near its sides, and
+        the sides' own points added).
+    folds : int
+        Half-circle folds, at least 1.
+    gap : float
+        Distance between facing sheets, in mean spacings (mean edge length of the reference
+        triangles), > 0.
+    width : float
+        The sheet's extent along the folds; the arc length across them is 1.
+    seed : int
+        Seeds the sample's shift and jitter.
+
+    Returns
+    -------
+    PleatedSheet
+
+    Raises
+    ------
+    ValueError
+        A bad ``n``, ``folds``, ``gap`` or ``width``, or folds too tight for the sheet (the
+        half circles would take more than half of the arc length).
+    """
+    from scipy.spatial import Delaunay
+
+    n, folds = int(n), int(folds)
+    if n < 100:
+        raise ValueError(f"n: expected at least 100 points, got {n}")
+    if folds < 1:
+        raise ValueError(f"folds: expected at least 1, got {folds}")
+    gap, width = float(gap), float(width)
+    if not gap > 0 or not width > 0:
+        raise ValueError(f"gap, width: expected positive numbers, got {gap!r}, {width!r}")
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(seed)
+    # The rectangle [0, 1] x [0, width]: its sides sampled evenly (so that the Delaunay
+    # triangulation has no slivers along them), its inside by the square's R2 sequence
+    # stretched, without the samples closer than half a spacing to a side's.
+    h = np.sqrt(width / n)
+    sides = []
+    for (x0, y0), (x1, y1) in (((0, 0), (1, 0)), ((1, 0), (1, width)),
+                               ((1, width), (0, width)), ((0, width), (0, 0))):
+        m = max(int(np.ceil(np.hypot(x1 - x0, y1 - y0) / h)), 1)
+        t = np.arange(m)[:, None] / m
+        sides.append([x0, y0] + t * [x1 - x0, y1 - y0])
+    rim = np.vstack(sides)
+    inside = ((_r2_square(n, rng) + 1.0) / 2.0) * [1.0, width]
+    inside = inside[cKDTree(rim).query(inside)[0] > 0.5 * h]
+    inside = inside[(inside > 0.5 * h).all(axis=1) & (inside < [1.0, width] - 0.5 * h).all(axis=1)]
+    uv = np.vstack([inside, rim])
+    F = Delaunay(uv).simplices.astype(np.int64)
+    e1, e2 = uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]
+    area2 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    F = F[np.abs(area2) > 1e-12 * width]  # collinear side points
+    area2 = area2[np.abs(area2) > 1e-12 * width]
+    F[area2 < 0] = F[area2 < 0][:, ::-1]
+    spacing = _mean_edge(np.column_stack([uv, np.zeros(len(uv))]), F)
+    radius = gap * spacing / 2.0
+    run = (1.0 - folds * np.pi * radius) / (folds + 1)
+    if run < 1.0 / (2 * (folds + 1)):
+        raise ValueError(f"gap: {folds} folds of {gap:g} spacings take more than half of the "
+                         f"sheet; ask for fewer folds, a smaller gap or more points")
+    xz, nxz, sheet = _serpentine(uv[:, 0], run, radius, folds)
+    points = np.column_stack([xz[:, 0], uv[:, 1], xz[:, 1]])
+    normals = np.column_stack([nxz[:, 0], np.zeros(len(uv)), nxz[:, 1]])
+    return PleatedSheet(points=points, normals=normals, faces=F, uv_true=uv, spacing=spacing,
+                        gap=gap, sheet=sheet)

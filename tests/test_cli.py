@@ -441,7 +441,7 @@ def test_evaluate_json_has_the_order_statistics_and_the_baselines(tmp_path, caps
     assert json.loads(capsys.readouterr().out)["baselines"] == {}
 
 
-def test_evaluate_plot_dir_writes_the_three_figures(tmp_path, capsys, tiny):
+def test_evaluate_plot_dir_writes_the_four_figures(tmp_path, capsys, tiny):
     V, F = _grid()
     mesh = tmp_path / "mesh.ply"
     write_ply_atomic(mesh, V, F)
@@ -452,18 +452,19 @@ def test_evaluate_plot_dir_writes_the_three_figures(tmp_path, capsys, tiny):
     assert cli.main(["evaluate", str(mesh), str(out), "--plot", str(figs), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     names = {"angles": "angle_histogram.png", "map": "map_angle_distortion.png",
-             "history": "history.png"}
+             "checker": "surface_checker.png", "history": "history.png"}
     assert report["plots"] == {k: str(figs / v) for k, v in names.items()}
     for name in names.values():
         assert (figs / name).read_bytes()[:8] == PNG_SIGNATURE
     assert _files(figs) == set(names.values())  # no temporary file left behind
 
-    # A bare uv file has no history: two figures, into an existing directory.
+    # A bare uv file has no history: three figures, into an existing directory.
     bare = tmp_path / "bare.npz"
     np.savez(bare, uv=V[:, :2])
     assert cli.main(["evaluate", str(mesh), str(bare), "--plot", str(figs)]) == 0
     captured = capsys.readouterr()
-    assert f"figures: {figs / names['angles']}, {figs / names['map']}" in captured.out
+    assert (f"figures: {figs / names['angles']}, {figs / names['map']}, "
+            f"{figs / names['checker']}\n") in captured.out
     assert "history.png" not in captured.out
 
 

@@ -14,6 +14,7 @@ import pytest
 
 from pcgeom.config import (
     PRESETS,
+    LocalMeshConfig,
     LossWeights,
     NetConfig,
     OptimizerConfig,
@@ -140,6 +141,13 @@ def test_configs_are_frozen(obj, attr):
          "LossWeights.leg: expected a non-negative finite number, got -1.0"),
         (lambda: RefineConfig(alpha="100"),
          "RefineConfig.alpha: expected a positive finite number, got '100'"),
+        (lambda: LocalMeshConfig(normal_scales=()),
+         "LocalMeshConfig.normal_scales: expected a non-empty sequence of ints >= 3, got ()"),
+        (lambda: LocalMeshConfig(normal_scales=(6, 2)),
+         "LocalMeshConfig.normal_scales: expected a non-empty sequence of ints >= 3, "
+         "got (6, 2)"),
+        (lambda: LocalMeshConfig(normal_tolerance=1.5),
+         "LocalMeshConfig.normal_tolerance: expected a number in [0, 1), got 1.5"),
         # nested configs must be configs
         (lambda: ParamConfig(schedule={"epochs": 3}),
          "ParamConfig.schedule: expected a ScheduleConfig, got dict"),

@@ -16,7 +16,8 @@ Training is shrunk to a second: every command module's ``get_preset`` is patched
 its own), so ``--preset fast`` and ``--preset paper`` keep their names and their checks.
 An example naming ``--device cuda`` would run on the CPU when CUDA is not available (none
 does today: they say ``--device auto``). An example passes when it exits
-with status 0 and writes every output it names (``--out``, ``--out-ply``, ``--plot``, ``-o``).
+with status 0 and writes every output it names (``--out``, ``--out-ply``, ``--out-mesh``,
+``--plot``, ``-o``).
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from pcgeom.io.points import SUPPORTED_EXTENSIONS, write_ply_atomic
 
 from .helpers import tiny_preset
 
-OUTPUT_OPTIONS = ("--out", "--out-ply", "--plot", "-o")
+OUTPUT_OPTIONS = ("--out", "--out-ply", "--out-mesh", "--plot", "-o")
 """Options whose value is a file the example writes (checked to exist afterwards)."""
 MAP_OPTIONS = ("--map",)
 LANDMARK_OPTIONS = ("--landmarks",)

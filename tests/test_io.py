@@ -60,8 +60,8 @@ def test_io_exports():
 
     assert set(pio.__all__) == {"InputError", "PointCloud", "SUPPORTED_EXTENSIONS", "read_points",
                                 "write_ply_atomic", "check_writable", "write_atomic",
-                                "save_npz_atomic", "ParamResult", "LandmarkPair",
-                                "read_landmarks"}
+                                "write_files_atomic", "save_npz_atomic", "ParamResult",
+                                "LandmarkPair", "read_landmarks"}
     assert all(hasattr(pio, name) for name in pio.__all__)
     # Array preparation lives in pcgeom.cloud, not here.
     for name in ("validate_points", "deduplicate", "normalize"):
@@ -363,7 +363,7 @@ def test_npz_writer_leaves_nothing_on_failure(tmp_path):
 def test_ply_writer_leaves_nothing_on_failure_mid_write(tmp_path, monkeypatch):
     import pcgeom.io.points as points_module
 
-    def half_write(f, V, F, N):
+    def half_write(f, V, F, N, UV=None):
         f.write(b"ply\nformat binary_little_endian 1.0\n")
         raise OSError("disk full")
 
@@ -372,6 +372,25 @@ def test_ply_writer_leaves_nothing_on_failure_mid_write(tmp_path, monkeypatch):
     with pytest.raises(OSError, match="disk full"):
         write_ply_atomic(tmp_path / "out.ply", V, F)
     assert _ls(tmp_path) == []
+
+
+def test_files_written_together_leave_none_on_failure(tmp_path):
+    """write_files_atomic: all files appear or none; earlier versions stay until all succeed."""
+    from pcgeom.io import write_files_atomic
+
+    paths = [tmp_path / name for name in ("a.obj", "a.mtl", "a.png")]
+    write_files_atomic({p: (lambda f, p=p: f.write(p.name.encode())) for p in paths})
+    assert [p.read_bytes() for p in paths] == [b"a.obj", b"a.mtl", b"a.png"]
+
+    def fails(f):
+        f.write(b"half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        write_files_atomic({paths[0]: lambda f: f.write(b"new"),
+                            paths[1]: lambda f: f.write(b"new"), paths[2]: fails})
+    assert [p.read_bytes() for p in paths] == [b"a.obj", b"a.mtl", b"a.png"]
+    assert _ls(tmp_path) == ["a.mtl", "a.obj", "a.png"]  # no temporary left
 
 
 def test_failed_write_keeps_previous_output(tmp_path, monkeypatch):

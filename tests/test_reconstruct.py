@@ -15,8 +15,8 @@ import pytest
 import pcgeom.cli.reconstruct as reconstruct_command
 from pcgeom import InputError, cli, get_domain, parametrize
 from pcgeom.apps.baselines import lscm
-from pcgeom.apps.boundary import detect_boundary
-from pcgeom.apps.reconstruct import (lift, mesh_report, reconstruct_on_domain,
+from pcgeom.apps.boundary import BoundaryLoops, detect_boundary
+from pcgeom.apps.reconstruct import (lift, map_delaunay, mesh_report, reconstruct_on_domain,
                                      reconstruct_surface)
 from pcgeom.cloud import fingerprint
 from pcgeom.examples import _BUMPS, peaks_surface
@@ -196,9 +196,7 @@ def _square(i0: int, j0: int, n: int = 12, side: int = 2) -> np.ndarray:
     return np.array([j * n + i for i, j in ring])
 
 
-def _holes(U, found, *holes) -> "BoundaryLoops":
-    from pcgeom.apps.boundary import BoundaryLoops
-
+def _holes(U, found, *holes) -> BoundaryLoops:
     return BoundaryLoops(loops=[found.loops[0], *holes],
                          areas=np.array([1.0] + [-1.0] * len(holes)), h=None, c=1.0,
                          min_loop=3, triangles=found.triangles)
@@ -411,6 +409,155 @@ def test_cli_writes_obj_by_extension(tmp_path, capsys, sheet):
     np.testing.assert_array_equal(meshes["obj"].faces, meshes["ply"].faces)
     np.testing.assert_allclose(meshes["obj"].points, meshes["ply"].points, rtol=0, atol=1e-14)
     assert {p.name for p in tmp_path.iterdir() if p.name.startswith(".")} == set()
+
+
+def _read_back(path: Path):
+    """Vertices, faces and per-vertex texture coordinates of a written mesh, as trimesh reads
+    it (process=False: no merging, rows kept) and as pymeshlab (MeshLab's reader) reads it."""
+    import trimesh
+
+    loaded = trimesh.load(path, process=False)
+    ours = (np.asarray(loaded.vertices), np.asarray(loaded.faces), np.asarray(loaded.visual.uv))
+    pymeshlab = pytest.importorskip("pymeshlab")
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(path))
+    m = ms.current_mesh()
+    uv = m.vertex_tex_coord_matrix() if m.has_vertex_tex_coord() else None
+    if path.suffix == ".obj":  # MeshLab reads an OBJ's vt per corner ("wedge")
+        corners = m.wedge_tex_coord_matrix().reshape(-1, 3, 2)  # (M, 3, 2)
+        uv = np.zeros((m.vertex_number(), 2))
+        uv[m.face_matrix()] = corners
+    return ours, (m.vertex_matrix(), m.face_matrix(), uv)
+
+
+def test_cli_mesh_carries_its_map_as_texture_coordinates(tmp_path, capsys, sheet):
+    """The sheet's map is its own xy and it is flat in the map (z = 0.1 x), so a vertex made
+    at map position q is (q, 0.1 q_x): its texture coordinates must be
+    (xy - uv_offset) / uv_scale, as --json records them. Read back with trimesh and with
+    pymeshlab, from OBJ (vt) and PLY (texture_u texture_v); with --texture the material and
+    the checkerboard come along."""
+    src, map_path, P, _ = sheet
+    summaries, meshes = {}, {}
+    for name, extra in [("mesh.obj", []), ("mesh.ply", []), ("tex.obj", ["--texture",
+                                                                         "checker:5"])]:
+        out = tmp_path / name
+        code = cli.main(["reconstruct", str(src), "--map", str(map_path), "--target-vertices",
+                         "400", "--out", str(out), "--json", *extra])
+        captured = capsys.readouterr()
+        assert code == 0, captured.err
+        summaries[name] = summary = json.loads(captured.out)
+        (V, F, uv), (Vm, Fm, uvm) = _read_back(out)
+        assert len(V) == len(Vm) == summary["n_vertices"]
+        assert len(F) == len(Fm) == summary["n_faces"]
+        offset, scale = np.array(summary["uv_offset"]), summary["uv_scale"]
+        np.testing.assert_allclose(uv, (V[:, :2] - offset) / scale, rtol=0, atol=1e-12)
+        # the unit square along the map's longer side (the sheet is wider than high)
+        np.testing.assert_allclose(uv.min(axis=0), [0.0, 0.0], atol=1e-12)
+        assert uv[:, 0].max() == pytest.approx(1.0, abs=1e-12) and uv[:, 1].max() < 1.0
+        np.testing.assert_allclose(Vm, V, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(Fm, F)
+        np.testing.assert_allclose(uvm, uv, rtol=0, atol=1e-6)  # MeshLab's uv are float32
+        meshes[name] = (V, F, uv)
+    for k in range(3):  # one mesh whatever the format
+        np.testing.assert_allclose(meshes["mesh.obj"][k], meshes["mesh.ply"][k], rtol=0,
+                                   atol=1e-14)
+    assert summaries["mesh.obj"]["texture"] is None and not (tmp_path / "mesh.mtl").exists()
+    assert "mtllib" not in (tmp_path / "mesh.obj").read_text()
+    assert summaries["tex.obj"]["texture"] == "checker:5"
+    assert summaries["tex.obj"]["texture_files"] == {"material": str(tmp_path / "tex.mtl"),
+                                                    "image": str(tmp_path / "tex_checker.png")}
+    assert "map_Kd tex_checker.png" in (tmp_path / "tex.mtl").read_text()
+    from PIL import Image
+
+    with Image.open(tmp_path / "tex_checker.png") as image:
+        assert image.size[0] == image.size[1] and image.size[0] % 5 == 0
+    assert {p.name for p in tmp_path.iterdir() if p.name.startswith(".")} == set()
+
+
+def test_reconstructions_return_the_map_positions_they_lifted():
+    """``return_uv``: the mesh's vertices in the map (free boundary) or in the domain; lifting
+    them again gives the mesh's vertices."""
+    U = _grid(16, (5, 8))
+    P = np.column_stack([U, 0.1 * U[:, 0]])
+    V, F, Q, report = reconstruct_surface(P, U, detect_boundary(U), target_vertices=300,
+                                          return_uv=True)
+    assert Q.shape == (len(V), 2) and report["n_vertices"] == len(V)
+    np.testing.assert_allclose(V[:, :2], Q, rtol=0, atol=1e-12)
+    t = np.linspace(0.0, 2 * np.pi, 64, endpoint=False)
+    D = np.vstack([get_domain("disk").sample(300, seed=0), np.column_stack([np.cos(t),
+                                                                           np.sin(t)])])
+    P = np.column_stack([D, 0.1 * D[:, 0]])  # a tilted disk whose map is its own xy
+    V, F, Q, _ = reconstruct_on_domain(P, D, get_domain("disk"), target_vertices=300,
+                                       return_uv=True)
+    assert (np.hypot(Q[:, 0], Q[:, 1]) <= 1.0 + 1e-9).all()
+    np.testing.assert_allclose(V, lift(P, D, map_delaunay(D), Q)[0], rtol=0, atol=1e-12)
+    inside = np.hypot(Q[:, 0], Q[:, 1]) < 0.99  # within the map's hull: lifted exactly
+    np.testing.assert_allclose(V[inside, :2], Q[inside], rtol=0, atol=1e-12)
+
+
+def test_cli_texture_errors_are_one_line_before_any_work_and_write_nothing(
+        tmp_path, capsys, sheet, monkeypatch):
+    src, map_path, _, _ = sheet
+    monkeypatch.setattr(reconstruct_command, "parametrize", None)  # no training from here on
+    monkeypatch.setattr(reconstruct_command, "reconstruct_surface", None)  # nor meshing
+    (tmp_path / "taken_checker.png").mkdir()
+    (tmp_path / "busy.mtl").mkdir()
+    before = sorted(p.name for p in tmp_path.iterdir())
+    start = ["reconstruct", str(src), "--map", str(map_path), "--out"]
+    _fails(capsys, start + [str(tmp_path / "mesh.stl"), "--texture", "checker"],
+           "mesh.stl: mesh output must have extension .ply or .obj, got '.stl'")
+    _fails(capsys, start + [str(tmp_path / "mesh.ply"), "--texture", "checker"],
+           "mesh.ply: a texture needs an .obj mesh (its .mtl material names the image); a .ply "
+           "holds the texture coordinates (texture_u texture_v) but no material: drop "
+           "--texture, or write .obj")
+    _fails(capsys, start + [str(tmp_path / "taken.obj"), "--texture", "checker:4"],
+           "taken_checker.png: is a directory, expected a file")
+    _fails(capsys, start + [str(tmp_path / "busy.obj"), "--texture", "checker"],
+           "busy.mtl: is a directory, expected a file")
+    _fails(capsys, start + [str(tmp_path / "my mesh.obj"), "--texture", "checker"],
+           "my mesh.obj: a textured OBJ's file name cannot hold white space (the mtllib line "
+           "names the material file)")
+    for spec in ("checker:0", "checker:abc", "checker:1000", "stripes"):
+        _fails(capsys, start + [str(tmp_path / "mesh.obj"), "--texture", spec],
+               "argument --texture: expected checker or checker:N (N squares along the longer "
+               f"side of the map, 1 to 256), got {spec!r}")
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_a_textured_mesh_whose_writing_fails_leaves_none_of_its_files(tmp_path, monkeypatch):
+    """The image, the material and the OBJ are written together: an error in the last one
+    leaves none of them, and earlier versions of all three untouched."""
+    from pcgeom.apps.reconstruct import write_mesh
+    from pcgeom.apps.texture import parse_texture
+
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    uv = V[:, :2]
+    texture = parse_texture("checker:2")
+    write_mesh(tmp_path / "m.obj", V, [[0, 1, 2]], uv=uv, texture=texture)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert set(before) == {"m.obj", "m.mtl", "m_checker.png"}
+
+    real_write = write_mesh.__globals__["write_files_atomic"]
+
+    def failing(writers):
+        def boom(f):
+            f.write(b"half")
+            raise OSError("disk full")
+        path = next(p for p in writers if Path(p).suffix == ".obj")
+        real_write({**writers, path: boom})
+
+    monkeypatch.setitem(write_mesh.__globals__, "write_files_atomic", failing)
+    with pytest.raises(OSError, match="disk full"):
+        write_mesh(tmp_path / "m.obj", V * 2, [[0, 1, 2]], uv=uv,
+                   texture=parse_texture("checker:3"))
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    with pytest.raises(ValueError, match="texture: needs uv"):
+        write_mesh(tmp_path / "n.obj", V, [[0, 1, 2]], texture=texture)
+    with pytest.raises(ValueError, match=r"uv: expected shape \(3, 2\), got \(2, 2\)"):
+        write_mesh(tmp_path / "n.obj", V, [[0, 1, 2]], uv=uv[:2])
+    with pytest.raises(ValueError, match="uv: contains NaN or inf"):
+        write_mesh(tmp_path / "n.ply", V, [[0, 1, 2]], uv=uv * np.nan)
+    assert not (tmp_path / "n.obj").exists() and not (tmp_path / "n.ply").exists()
 
 
 def test_write_mesh_checks_its_input(tmp_path):

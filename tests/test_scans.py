@@ -23,7 +23,7 @@ from pcgeom import InputError, cli, parametrize, read_points
 from pcgeom.apps.baselines import lscm
 from pcgeom.cloud import find_outliers
 from pcgeom.metrics import angle_distortion
-from pcgeom.synthetic import HEIGHT_BUMPS, holey_heightfield, range_scan
+from pcgeom.synthetic import HEIGHT_BUMPS, holey_heightfield, pleated_sheet, range_scan
 from pcgeom.maps.localmesh import CLOSED_SURFACE
 from tests.helpers import assert_cli_fails, map_record
 
@@ -422,3 +422,71 @@ def test_closed_head_is_refused_by_the_cli_in_one_line(tmp_path, capsys):
     assert lines[-1] == f"pcgeom: error: {CLOSED_SURFACE}"
     assert not any("error" in line for line in lines[:-1])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["closed.ply"]
+
+
+# --- the pleated sheet ----------------------------------------------------------------------
+
+def test_pleated_sheet_is_folded_as_asked():
+    """Facing sheets ``gap`` spacings apart, the surface isometric to its parameters (edges
+    along a run keep their length), the normals agree with the reference triangles."""
+    from scipy.spatial import cKDTree
+
+    sheet = pleated_sheet(4000, folds=3, gap=2.0, seed=1)
+    X, F = sheet.points, sheet.faces
+    for k in range(3):
+        d = cKDTree(X[sheet.sheet == k + 1]).query(X[sheet.sheet == k])[0]
+        assert abs(d.min() / sheet.spacing - 2.0) < 0.01
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    same_run = (sheet.sheet[E[:, 0]] == sheet.sheet[E[:, 1]]) & (sheet.sheet[E[:, 0]] >= 0)
+    l3 = np.linalg.norm(X[E[:, 0]] - X[E[:, 1]], axis=1)
+    l2 = np.linalg.norm(sheet.uv_true[E[:, 0]] - sheet.uv_true[E[:, 1]], axis=1)
+    np.testing.assert_allclose(l3[same_run], l2[same_run], rtol=1e-9)
+    cross = np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
+    assert ((cross * sheet.normals[F].sum(axis=1)).sum(axis=1) > 0).all()
+    assert np.allclose(np.linalg.norm(sheet.normals, axis=1), 1.0)
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: pleated_sheet(50), r"^n: expected at least 100 points, got 50$"),
+    (lambda: pleated_sheet(folds=0), r"^folds: expected at least 1, got 0$"),
+    (lambda: pleated_sheet(gap=0.0), r"^gap, width: expected positive numbers"),
+    (lambda: pleated_sheet(1000, folds=8, gap=8.0), r"^gap: 8 folds of 8 spacings take more"),
+])
+def test_pleated_sheet_errors_name_the_argument(call, message):
+    with pytest.raises(ValueError, match=message):
+        call()
+
+
+@pytest.mark.parametrize("gap", [2.0, 2.5])
+def test_bare_pleat_is_not_bridged_across_its_folds(gap):
+    """A bare pleated sheet whose sheets lie 2 or 2.5 spacings apart maps with no flip and
+    several times better than with 16-neighbour normals, which reach across the folds
+    (measured on 3000 points: 0.0168 and 0.0177 rad, no flip; 16 neighbours 0.113 and 0.063
+    rad, 1.1% and 0.38% flipped; LSCM on the true mesh of this developable sheet: 0.0021 and
+    0.0015)."""
+    import dataclasses
+
+    from pcgeom.config import get_preset
+
+    sheet = pleated_sheet(3000, folds=4, gap=gap)
+    result = parametrize(sheet.points, progress=False)
+    assert result.history[0]["normals"] == "estimated"
+    ours = angle_distortion(sheet.points, sheet.faces, result.uv)
+    fast = get_preset("fast")
+    fixed = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh,
+                                                                      normal_scales=(16,)))
+    before = angle_distortion(sheet.points, sheet.faces,
+                              parametrize(sheet.points, config=fixed, progress=False).uv)
+    assert ours.mean_abs < 0.025 and ours.mean_abs < 0.4 * before.mean_abs, (ours, before)
+    assert ours.flipped < 0.003 * len(sheet.faces) < before.flipped
+
+
+def test_sheets_one_and_a_half_spacings_apart_still_pass_the_surface_test():
+    """At 16 neighbours a pleat with sheets 1.5 spacings apart looks like a volume (median
+    surface variation 0.23); at each point's own scale it is flat, so it is mapped."""
+    sheet = pleated_sheet(3000, folds=4, gap=1.5)
+    result = parametrize(sheet.points, normals=sheet.normals, progress=False)
+    assert np.isfinite(result.uv).all()
+    blob = np.random.default_rng(7).normal(size=(2000, 3))
+    with pytest.raises(InputError, match="does not look like one sampled surface"):
+        parametrize(blob, progress=False)

@@ -33,7 +33,7 @@ EVALUATION_BASELINES = ("lscm", "harmonic_disk")
 :data:`pcgeom.apps.baselines.BASELINES`."""
 
 PLOT_FILES = {"angles": "angle_histogram.png", "map": "map_angle_distortion.png",
-              "history": "history.png"}
+              "checker": "surface_checker.png", "history": "history.png"}
 """The figures :func:`plot_evaluation` writes into its directory, by key."""
 
 
@@ -190,6 +190,8 @@ class Evaluation:
     domain: Domain | None = None
     history: list = field(default_factory=list)
     """``ParamResult.history`` (empty for a bare ``uv`` file)."""
+    points: np.ndarray | None = None
+    """(N, 3) the reference mesh's vertices (the surface of the ``checker`` figure)."""
 
 
 def evaluate_map(U, V, F, domain: Domain | None = None, history=None,
@@ -220,7 +222,7 @@ def evaluate_map(U, V, F, domain: Domain | None = None, history=None,
     runs = tuple(run_baselines(V, F, baselines))
     report["baselines"] = {run.name: run.to_dict() for run in runs}
     return Evaluation(report, angles, runs, U, np.asarray(F, dtype=np.int64), domain,
-                      list(history or []))
+                      list(history or []), points=np.asarray(V, dtype=np.float64))
 
 
 def vertex_angle_distortion(F, per_corner, n_vertices: int) -> np.ndarray:
@@ -254,7 +256,8 @@ def _baseline_histograms(evaluation: Evaluation) -> dict:
             if run.angles is not None}
 
 
-def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None) -> dict:
+def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
+                    squares: int | None = None) -> dict:
     """The figures of ``pcgeom evaluate --plot DIR``, written into ``out_dir`` (created if
     absent; its parent must exist), atomically, named as in :data:`PLOT_FILES`:
 
@@ -262,6 +265,11 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None) -
       histograms overlaid on the same bins;
     - ``map``: the map coloured by angle distortion (per vertex, the mean over its corners;
       :func:`vertex_angle_distortion`), the domain's boundary in red when bounded;
+    - ``checker``: the reference surface with a checkerboard of ``squares`` squares in the
+      map's coordinates (:func:`pcgeom.apps.plot.plot_checker`, the map scaled into the unit
+      square as ``pcgeom reconstruct`` writes its texture coordinates), beside the surface
+      coloured by angle distortion per triangle (the mean of its corners); None for an
+      evaluation without the mesh's vertices;
     - ``history``: the loss terms at the end of each stage (none for a map without history).
 
     Returns
@@ -270,7 +278,8 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None) -
         Key of :data:`PLOT_FILES` -> the Path written, or None when the figure does not
         apply.
     """
-    from .plot import plot_angle_histogram, plot_history, plot_map
+    from .plot import plot_angle_histogram, plot_checker, plot_history, plot_map
+    from .texture import uv_scaling
 
     out_dir = Path(out_dir)
     out_dir.mkdir(exist_ok=True)
@@ -285,8 +294,15 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None) -
                                            len(evaluation.uv)),
             domain=evaluation.domain,
             title=f"{prefix}angle distortion per vertex (rad)"),
+        "checker": None,
         "history": None,
     }
+    if evaluation.points is not None:
+        written["checker"] = plot_checker(
+            evaluation.points, evaluation.faces, uv_scaling(evaluation.uv).apply(evaluation.uv),
+            out_dir / PLOT_FILES["checker"], squares=squares,
+            values=evaluation.angles.per_corner.mean(axis=1),
+            value_label="angle distortion per triangle (rad)", title=title)
     if evaluation.history:
         written["history"] = plot_history(evaluation.history, out_dir / PLOT_FILES["history"],
                                           title=f"{prefix}loss per stage")

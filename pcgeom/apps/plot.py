@@ -1,5 +1,6 @@
 """Figures: a 2D map coloured by a per-point value, a parameter domain, per-stage loss curves,
-angle histograms, detected boundary loops and the effect of the threshold h on them.
+angle histograms, detected boundary loops and the effect of the threshold h on them, and a
+surface with a checkerboard in its map's coordinates.
 
 matplotlib is imported inside each function (it is slow to import and only figures need it),
 and figures are built with :class:`matplotlib.figure.Figure` on the Agg canvas, never through
@@ -21,7 +22,7 @@ from ..io.atomic import write_atomic
 from ..train.objective import LOSS_TERMS
 
 __all__ = ["plot_map", "plot_domain", "plot_history", "plot_angle_histogram", "plot_boundary",
-           "plot_boundary_h_sweep"]
+           "plot_boundary_h_sweep", "plot_checker"]
 
 
 def _new_figure(figsize: tuple[float, float]):
@@ -426,6 +427,123 @@ def plot_boundary_h_sweep(U, hs, path, title: str | None = None) -> Path:
         ax.set_title(_rule_text(found), fontsize="medium")
         ax.set_xticks([])
         ax.set_yticks([])
+    if title:
+        fig.suptitle(title)
+    return _save_png_atomic(fig, path)
+
+
+def _surface_frame(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """``V`` in its principal frame, least-variance axis up and the mesh's mean normal along
+    +z, so that an open surface faces the viewer of a 3D axes. (K, 3)"""
+    X = V - V.mean(axis=0)
+    _, _, axes = np.linalg.svd(X, full_matrices=False)  # rows: most to least variance
+    axes[2] = np.cross(axes[0], axes[1])  # right-handed
+    normal = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]).sum(axis=0)
+    if normal @ axes[2] < 0:
+        axes[1:] *= -1  # half a turn about the first axis: still right-handed
+    return X @ axes.T
+
+
+def _draw_surface(ax, Y: np.ndarray, F: np.ndarray, rgb: np.ndarray) -> None:
+    """Triangles ``Y[F]`` on a 3D axes with face colours ``rgb`` (M, 3) in [0, 1], lit by one
+    light from the upper left (both sides alike) so that the shape reads."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    n = np.cross(Y[F[:, 1]] - Y[F[:, 0]], Y[F[:, 2]] - Y[F[:, 0]])  # (M, 3)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    light = np.array([-0.4, -0.5, 0.77])
+    shade = 0.45 + 0.55 * np.abs(n @ (light / np.linalg.norm(light)))  # (M,)
+    colours = np.clip(rgb * shade[:, None], 0.0, 1.0)
+    # Edges in the faces' own colour close the hairline gaps between neighbouring faces.
+    ax.add_collection3d(Poly3DCollection(Y[F], facecolors=colours, edgecolors=colours,
+                                         linewidths=0.15))
+    lo, hi = Y.min(axis=0), Y.max(axis=0)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    extent = hi - lo
+    ax.set_box_aspect(np.maximum(extent, 0.05 * extent.max()), zoom=1.1)  # true proportions
+    ax.view_init(elev=50, azim=-70)
+    ax.set_axis_off()
+
+
+def plot_checker(V, F, uv, path, squares: int | None = None, values=None,
+                 value_label: str = "angle distortion (rad)", title: str | None = None) -> Path:
+    """The surface ``(V, F)`` with a checkerboard in its texture coordinates ``uv``: each
+    triangle coloured by the checker parity under its centroid
+    (:func:`pcgeom.apps.texture.checker_parity`, the colours of the texture image), and beside
+    it, when ``values`` are given, the surface coloured by them (e.g. the angle distortion).
+
+    Squares that stay squares on the surface show a conformal map, parallelograms a shear,
+    squares of changing size the map's scale (its ``lambda``), overlapping squares a fold.
+
+    Parameters
+    ----------
+    V : (K, 3) array_like
+    F : (M, 3) array_like of int
+    uv : (K, 2) array_like
+        Texture coordinates in ``[0, 1]`` (:meth:`pcgeom.apps.texture.UVScaling.apply` of
+        the map).
+    path : str or os.PathLike
+        Output ``.png`` file, written atomically.
+    squares : int, optional
+        Squares along the longer side of the map (default
+        :data:`pcgeom.apps.texture.CHECKER_SQUARES`).
+    values : (M,) array_like, optional
+        One value per triangle for the second panel (NaN: grey).
+    value_label : str
+        The colour bar's label of ``values``.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        Bad shapes or non-finite coordinates, ``values`` not (M,), or a path without the
+        ``.png`` extension.
+    """
+    from .texture import CHECKER_COLOURS, CHECKER_SQUARES, checker_parity
+
+    V = np.asarray(V, dtype=np.float64)
+    if V.ndim != 2 or V.shape[1] != 3 or len(V) < 3 or not np.isfinite(V).all():
+        raise ValueError(f"V: expected finite coordinates of shape (K, 3), K >= 3, got {V.shape}")
+    F = np.asarray(F, dtype=np.int64)
+    if F.ndim != 2 or F.shape[1] != 3 or len(F) == 0 or F.min() < 0 or F.max() >= len(V):
+        raise ValueError(f"F: expected shape (M, 3) with indices below {len(V)}, got {F.shape}")
+    uv = _check_map(uv)
+    if len(uv) != len(V):
+        raise ValueError(f"uv: expected {len(V)} rows (one per vertex), got {len(uv)}")
+    squares = CHECKER_SQUARES if squares is None else int(squares)
+    if values is not None:
+        values = np.asarray(values, dtype=np.float64)
+        if values.shape != (len(F),):
+            raise ValueError(f"values: expected shape ({len(F)},), got {values.shape}")
+
+    Y = _surface_frame(V, F)
+    fig = _new_figure((11.0, 5.2) if values is not None else (6.0, 5.2))
+    ax = fig.add_subplot(1, 2 if values is not None else 1, 1, projection="3d")
+    palette = np.asarray(CHECKER_COLOURS, dtype=np.float64) / 255.0
+    _draw_surface(ax, Y, F, palette[checker_parity(uv, F, squares)])
+    ax.set_title(f"checkerboard in the map ({squares} squares a side)")
+    if values is not None:
+        from matplotlib import colormaps
+        from matplotlib.cm import ScalarMappable
+        from matplotlib.colors import Normalize
+
+        ax2 = fig.add_subplot(1, 2, 2, projection="3d")
+        finite = values[np.isfinite(values)]
+        norm = Normalize(0.0, float(np.percentile(finite, 99)) if finite.size else 1.0)
+        rgb = colormaps["viridis"](norm(np.nan_to_num(values, nan=0.0)))[:, :3]
+        rgb[~np.isfinite(values)] = 0.6
+        _draw_surface(ax2, Y, F, rgb)
+        fig.colorbar(ScalarMappable(norm=norm, cmap="viridis"), ax=ax2, shrink=0.7,
+                     label="clipped at the 99th percentile")
+        ax2.set_title(value_label)
     if title:
         fig.suptitle(title)
     return _save_png_atomic(fig, path)

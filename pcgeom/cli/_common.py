@@ -12,9 +12,9 @@ from types import ModuleType
 from ..errors import InputError
 
 __all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "int_at_least",
-           "seed", "denoise_option", "add_denoise_option", "distinct_paths", "add_cloud_and_map",
-           "load_free_map", "print_angles", "print_noise", "flip_places", "add_command",
-           "standalone_parser", "run_command"]
+           "seed", "denoise_option", "add_denoise_option", "texture_spec", "add_texture_option",
+           "texture_line", "distinct_paths", "add_cloud_and_map", "load_free_map", "print_angles",
+           "print_noise", "flip_places", "add_command", "standalone_parser", "run_command"]
 
 EXIT_OK = 0
 EXIT_FAILURE = 1  # the run itself failed (I/O error, missing optional dependency)
@@ -69,6 +69,35 @@ def add_denoise_option(p: argparse.ArgumentParser) -> None:
                         "noise exceeds 0.2 spacings), off, or STRENGTH, the fit's Gaussian "
                         "width in spacings (median nearest-neighbour distances), always "
                         "applied; 3 is auto's (default: the preset's, auto for fast)")
+
+
+def texture_spec(text: str):
+    """An argparse type: a texture spec (:func:`pcgeom.apps.texture.parse_texture`)."""
+    from ..apps.texture import parse_texture
+
+    try:
+        return parse_texture(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("texture: ")) from None
+
+
+def add_texture_option(p: argparse.ArgumentParser, mesh_option: str) -> None:
+    """``--texture checker[:N]``: a checkerboard material for the OBJ of ``mesh_option``."""
+    p.add_argument("--texture", type=texture_spec, metavar="checker[:N]",
+                   help=f"also write a material and a checkerboard image of N x N squares "
+                        f"(default 8) over the map beside the OBJ of {mesh_option} "
+                        "(MESH.mtl, MESH_checker.png): open it in MeshLab or Blender to see "
+                        "the map's distortion; needs an .obj")
+
+
+def texture_line(summary: dict) -> str:
+    """The human line for a mesh's texture coordinates (``uv_offset``, ``uv_scale``) and its
+    texture files (``texture``, ``texture_files``)."""
+    (x, y), scale = summary["uv_offset"], summary["uv_scale"]
+    line = f"  texture coordinates: uv = (p - ({x:.6g}, {y:.6g})) / {scale:.6g}"
+    if summary.get("texture_files"):
+        line += f"; {summary['texture']}: " + ", ".join(summary["texture_files"].values())
+    return line
 
 
 def distinct_paths(inputs: dict[str, str | None], outputs: dict[str, Path | None]) -> None:

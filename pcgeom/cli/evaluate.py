@@ -27,7 +27,9 @@ examples:
   pcgeom evaluate mesh.ply mesh_uv.npz
   pcgeom evaluate mesh.obj mesh_uv.npz --plot figures/ --json
       writes figures/{PLOT_FILES['angles']} (the map's angle histogram over the baselines'),
-      figures/{PLOT_FILES['map']} (the map coloured by angle distortion) and
+      figures/{PLOT_FILES['map']} (the map coloured by angle distortion),
+      figures/{PLOT_FILES['checker']} (the mesh with a checkerboard in the map's
+      coordinates, beside it coloured by angle distortion) and
       figures/{PLOT_FILES['history']} (the loss terms per stage)
   pcgeom evaluate mesh.ply mesh_uv.npz --plot angles.png --no-baselines
       a .png path writes the angle histogram only

@@ -17,6 +17,8 @@ import numpy as np
 import torch
 
 from ..apps.evaluate import map_report
+from ..apps.reconstruct import check_mesh_path, texture_paths, write_mesh
+from ..apps.texture import map_mesh, uv_scaling
 from ..cloud import validate_points
 from ..config import PRESETS, get_preset, with_denoise
 from ..domains import DOMAINS, PolygonDomain, get_domain
@@ -25,9 +27,9 @@ from ..examples import EXAMPLES, load_example
 from ..io import check_writable, read_landmarks, read_points, write_ply_atomic
 from ..maps import parametrize
 from ..train import LOSS_TERMS, resolve_device
-from ._common import (EXIT_OK, add_denoise_option, distinct_paths, flip_places, int_at_least,
-                      print_angles, print_domain_fit, print_noise, run_command, seed,
-                      standalone_parser)
+from ._common import (EXIT_OK, add_denoise_option, add_texture_option, distinct_paths,
+                      flip_places, int_at_least, print_angles, print_domain_fit, print_noise,
+                      run_command, seed, standalone_parser, texture_line)
 
 __all__ = ["configure", "run", "main"]
 
@@ -44,6 +46,10 @@ examples:
       built-in three-peaks surface; also reports angle distortion against its mesh
   pcgeom param scan.ply --domain disk --out scan_uv.npz --out-ply scan_uv.ply
       map onto the unit disk; the PLY holds the mapped points (z = 0) and the input faces
+  pcgeom param mesh.obj --out-mesh mesh_uv.obj --texture checker:12
+      the input mesh with the map as its texture coordinates, and a 12 x 12 checkerboard
+      material (mesh_uv.mtl, mesh_uv_checker.png) to see the map's distortion in MeshLab
+      or Blender; a bare cloud gets its local mesh (the one the map was built on)
   pcgeom param face.ply --domain smile --plot face_uv.png
       onto the smiling face (unit disk minus two eyes and a mouth); see 'pcgeom domains'
   pcgeom param scan.xyz --preset paper --device auto --seed 3 --quiet --json
@@ -101,6 +107,11 @@ def configure(p: argparse.ArgumentParser) -> None:
                         "<example>_uv.npz in the current directory for --example)")
     p.add_argument("--out-ply", metavar="MAPPED.ply",
                    help="also write the mapped points (z = 0, input faces if any) as PLY")
+    p.add_argument("--out-mesh", metavar="MESH.obj|MESH.ply",
+                   help="also write the input's mesh with the map as its texture coordinates "
+                        "(OBJ vt, PLY texture_u texture_v); a bare cloud gets its local mesh, "
+                        "the one the map was built on")
+    add_texture_option(p, "--out-mesh")
     p.add_argument("--plot", metavar="MAP.png",
                    help="also draw the map coloured by lambda_inv")
     p.add_argument("--resume", action="store_true",
@@ -141,14 +152,40 @@ def _normals_used(history: list[dict], given: bool) -> str:
 
 def _check_outputs(args, default_out: Path) -> dict[str, Path | None]:
     """All output paths, checked writable, distinct, and none of them the input."""
+    if args.texture is not None and args.out_mesh is None:
+        raise InputError("--texture needs --out-mesh MESH.obj (the mesh it textures)")
     outs = {
         "out": check_writable(args.out if args.out is not None else default_out, "npz"),
         "out_ply": check_writable(args.out_ply, "ply") if args.out_ply else None,
+        "out_mesh": check_mesh_path(args.out_mesh, args.texture) if args.out_mesh else None,
         "plot": check_writable(args.plot, "png") if args.plot else None,
     }
     outs["checkpoint"] = check_writable(outs["out"].with_suffix(".ckpt"), "ckpt")
-    distinct_paths({"INPUT": args.input, "--landmarks": args.landmarks}, outs)
+    extra = texture_paths(outs["out_mesh"], args.texture) if args.texture is not None else {}
+    distinct_paths({"INPUT": args.input, "--landmarks": args.landmarks},
+                   {**outs, **{f"texture {k}": v for k, v in extra.items()}})
     return outs
+
+
+def _write_mesh(args, outs, points, faces, normals, result) -> dict | None:
+    """``--out-mesh``: the input's mesh (or a bare cloud's local mesh) with the map as its
+    texture coordinates; the summary's ``mesh`` object (None without ``--out-mesh``)."""
+    if outs["out_mesh"] is None:
+        return None
+    # A denoised map was made of the fitted points: its mesh is theirs.
+    fitted = result.fitted if result.fitted is not None else points
+    mesh = map_mesh(fitted, result.uv, faces, config=result.config, normals=normals,
+                    progress=not args.quiet)
+    scaling = uv_scaling(mesh.uv)
+    write_mesh(outs["out_mesh"], mesh.vertices, mesh.faces, uv=scaling.apply(mesh.uv),
+               texture=args.texture)
+    files = None
+    if args.texture is not None:
+        files = {k: os.fspath(v) for k, v in texture_paths(outs["out_mesh"], args.texture).items()}
+    return {"source": mesh.source, "n_vertices": len(mesh.vertices), "n_faces": len(mesh.faces),
+            "unused_points": mesh.unused, **scaling.to_dict(),
+            "texture": args.texture.spec if args.texture is not None else None,
+            "texture_files": files}
 
 
 def run(args) -> int:
@@ -178,6 +215,7 @@ def run(args) -> int:
     if outs["out_ply"] is not None:
         mapped = np.column_stack([result.uv, np.zeros(len(result.uv))])  # (N, 3), z = 0
         write_ply_atomic(outs["out_ply"], mapped, faces)
+    mesh = _write_mesh(args, outs, points, faces, normals, result)
     if outs["plot"] is not None:
         from ..apps.plot import plot_map
 
@@ -200,6 +238,8 @@ def run(args) -> int:
         "input": name,
         "out": os.fspath(outs["out"]),
         "out_ply": os.fspath(outs["out_ply"]) if outs["out_ply"] else None,
+        "out_mesh": os.fspath(outs["out_mesh"]) if outs["out_mesh"] else None,
+        "mesh": mesh,
         "plot": os.fspath(outs["plot"]) if outs["plot"] else None,
         "n_points": report["n_points"],
         # A polygon's spec holds all its coordinates: scripts get the file they named.
@@ -222,7 +262,8 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(summary))
         return EXIT_OK
-    written = [summary["out"]] + [summary[k] for k in ("out_ply", "plot") if summary[k]]
+    written = [summary["out"]] + [summary[k] for k in ("out_ply", "out_mesh", "plot")
+                                  if summary[k]]
     print(f"{name}: {summary['n_points']} points -> {', '.join(written)}")
     print(f"preset {args.preset}, domain {domain.label}, device {summary['device']}, "
           f"seed {args.seed}: {summary['seconds']:.1f} s")
@@ -237,7 +278,20 @@ def run(args) -> int:
               + ", ".join(f"{d:.4f}" for d in summary["landmark_hausdorff"]))
     if evaluation is not None:
         print_angles(report)
+    if mesh is not None:
+        print(_mesh_line(mesh, summary["out_mesh"], len(points)))
+        print(texture_line(mesh))
     return EXIT_OK
+
+
+def _mesh_line(mesh: dict, path: str, n_points: int) -> str:
+    """The human line for ``--out-mesh``: whose triangles it holds."""
+    if mesh["source"] == "input":
+        return (f"{path}: the input's {mesh['n_faces']} triangles with the map as texture "
+                "coordinates")
+    return (f"{path}: the input has no faces, so this is its local mesh (the one the map was "
+            f"built on): {mesh['n_faces']} triangles over {mesh['n_vertices']} of the "
+            f"{n_points} points")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,16 +8,17 @@ import sys
 
 from ..apps.boundary import detect_boundary
 from ..apps.reconstruct import (SIZES, check_mesh_path, reconstruct_on_domain,
-                                 reconstruct_surface, require_gmsh, write_mesh)
+                                 reconstruct_surface, require_gmsh, texture_paths, write_mesh)
+from ..apps.texture import uv_scaling
 from ..config import get_preset, with_denoise
 from ..domains import get_domain
 from ..errors import InputError
 from ..io import read_points
 from ..maps import parametrize
 from .boundary import add_hole_options
-from ._common import (EXIT_OK, add_cloud_and_map, add_denoise_option, distinct_paths,
-                      int_at_least, load_free_map, print_noise, run_command,
-                      standalone_parser)
+from ._common import (EXIT_OK, add_cloud_and_map, add_denoise_option, add_texture_option,
+                      distinct_paths, int_at_least, load_free_map, print_noise, run_command,
+                      standalone_parser, texture_line)
 
 __all__ = ["configure", "run", "main"]
 
@@ -35,6 +36,9 @@ examples:
       reuses a map written by 'pcgeom param scan.ply' (no --domain)
   pcgeom reconstruct scan.ply --map scan_uv.npz --size adaptive --out mesh.obj
       element size from the map's lambda (its file's lambda_inv); written as OBJ
+  pcgeom reconstruct scan.ply --map scan_uv.npz --texture checker:12 --out mesh.obj
+      also writes mesh.mtl and mesh_checker.png (12 x 12 squares over the map): open
+      mesh.obj in MeshLab or Blender to see the map's distortion on the surface
   pcgeom reconstruct scan.ply --domain disk --target-vertices 2000 --out disk_mesh.ply
       maps the cloud onto the disk first (preset fast), then meshes the disk itself and lifts
       it (one boundary loop, the circle's); with --map, a map that 'pcgeom param scan.ply
@@ -52,6 +56,9 @@ domain first (preset fast). The summary gives
 the distances from the mesh vertices to INPUT (vertex-to-point) over its bounding-box
 diagonal, the triangles' minimum angle and aspect ratio. Faces in INPUT are never used.
 The format follows the extension of --out: .ply (binary) or .obj (text, trimesh's exporter).
+Either carries the map as texture coordinates, one pair per vertex (OBJ vt, PLY texture_u
+texture_v): the vertex's position in the map, uv = (p - uv_offset) / uv_scale, which fills
+[0, 1] along the map's longer side and keeps its aspect (--json gives uv_offset and uv_scale).
 Needs gmsh (pip install 'gmsh>=4.11').
 """
 
@@ -71,7 +78,9 @@ def configure(p) -> None:
     p.add_argument("--target-vertices", type=int_at_least(3), default=5000, metavar="N",
                    help="about how many vertices the mesh gets (default: 5000)")
     p.add_argument("--out", required=True, metavar="MESH.ply|MESH.obj",
-                   help="the mesh, as PLY or OBJ (by extension)")
+                   help="the mesh, as PLY or OBJ (by extension), with the map as its texture "
+                        "coordinates")
+    add_texture_option(p, "--out")
     p.add_argument("--quiet", action="store_true",
                    help="no progress (bars on a terminal, a few lines in a log)")
     p.add_argument("--json", action="store_true",
@@ -87,8 +96,10 @@ def run(args) -> int:
         raise InputError("--denoise: the map is read from --map; denoise when making it "
                          "(pcgeom param --denoise), or drop --map")
     config = with_denoise(get_preset("fast"), args.denoise)
-    out = check_mesh_path(args.out)
-    distinct_paths({"INPUT": args.input, "--map": args.map}, {"out": out})
+    out = check_mesh_path(args.out, args.texture)
+    extra = texture_paths(out, args.texture) if args.texture is not None else {}
+    distinct_paths({"INPUT": args.input, "--map": args.map},
+                   {"out": out, **{f"texture {k}": v for k, v in extra.items()}})
     domain = get_domain(args.domain) if args.domain is not None else None
     if domain is not None and not domain.bounded:
         domain = None  # --domain free: the free-boundary path
@@ -110,12 +121,25 @@ def run(args) -> int:
         raise InputError(f"{args.input}: its map has no boundary loop of {loops.min_loop} points "
                          f"or more ({len(loops.dropped)} smaller ones dropped); the "
                          "reconstruction would be empty")
-    V, F, report = reconstruct_surface(lifted, result.uv, loops, size=args.size,
-                                       target_vertices=args.target_vertices,
-                                       lambda_inv=result.lambda_inv)
-    write_mesh(out, V, F)
+    V, F, Q, report = reconstruct_surface(lifted, result.uv, loops, size=args.size,
+                                          target_vertices=args.target_vertices,
+                                          lambda_inv=result.lambda_inv, return_uv=True)
+    report.update(_write(args, out, V, F, Q))
     summary = _summary(args, points, result, out, report, n_loops_detected=len(loops.loops))
     return _print(args, points, report, summary, f"{len(loops.loops)} detected")
+
+
+def _write(args, out, V, F, Q) -> dict:
+    """Write the mesh with its texture coordinates (the vertices' map positions, scaled into
+    the unit square) and the texture asked for; the summary's keys for them."""
+    scaling = uv_scaling(Q)
+    write_mesh(out, V, F, uv=scaling.apply(Q), texture=args.texture)
+    files = None
+    if args.texture is not None:
+        files = {k: os.fspath(v) for k, v in texture_paths(out, args.texture).items()}
+    return {**scaling.to_dict(),
+            "texture": args.texture.spec if args.texture is not None else None,
+            "texture_files": files}
 
 
 def _summary(args, points, result, out, report: dict, **extra) -> dict:
@@ -135,10 +159,10 @@ def _summary(args, points, result, out, report: dict, **extra) -> dict:
 
 def _on_domain(args, points, result, domain, out) -> int:
     """The mesh of the domain itself, lifted over the map's Delaunay triangles."""
-    V, F, report = reconstruct_on_domain(points, result.uv, domain, size=args.size,
-                                         target_vertices=args.target_vertices,
-                                         lambda_inv=result.lambda_inv)
-    write_mesh(out, V, F)
+    V, F, Q, report = reconstruct_on_domain(points, result.uv, domain, size=args.size,
+                                            target_vertices=args.target_vertices,
+                                            lambda_inv=result.lambda_inv, return_uv=True)
+    report.update(_write(args, out, V, F, Q))
     summary = _summary(args, points, result, out, report)
     return _print(args, points, report, summary,
                   f"{report['n_domain_loops']} in the domain {domain.label}")
@@ -156,6 +180,7 @@ def _print(args, points, report: dict, summary: dict, loops: str) -> int:
           f"mean {report['mean_distance_rel']:.4f}")
     print(f"  triangles: min angle {report['min_angle_deg']:.1f} deg, "
           f"max aspect ratio {report['max_aspect_ratio']:.2f}")
+    print(texture_line(report))
     print_noise(summary["denoise"])
     return EXIT_OK
 

@@ -5,11 +5,12 @@
 - :mod:`pcgeom.io.results`: :class:`ParamResult`, the map file written by ``pcgeom param``
   (``ParamResult.save`` / ``ParamResult.load``).
 - :mod:`pcgeom.io.landmarks`: :func:`read_landmarks` (JSON landmark pairs).
-- :mod:`pcgeom.io.atomic`: :func:`write_atomic`, :func:`check_writable`.
+- :mod:`pcgeom.io.atomic`: :func:`write_atomic`, :func:`write_files_atomic`,
+  :func:`check_writable`.
 """
 
 from ..errors import InputError
-from .atomic import check_writable, save_npz_atomic, write_atomic
+from .atomic import check_writable, save_npz_atomic, write_atomic, write_files_atomic
 from .landmarks import LandmarkPair, read_landmarks
 from .points import SUPPORTED_EXTENSIONS, PointCloud, read_points, write_ply_atomic
 from .results import ParamResult
@@ -22,6 +23,7 @@ __all__ = [
     "write_ply_atomic",
     "check_writable",
     "write_atomic",
+    "write_files_atomic",
     "save_npz_atomic",
     "ParamResult",
     "LandmarkPair",

@@ -19,7 +19,8 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["check_readable", "read_json", "check_writable", "write_atomic", "save_npz_atomic"]
+__all__ = ["check_readable", "read_json", "check_writable", "write_atomic", "write_files_atomic",
+           "save_npz_atomic"]
 
 
 def _with_extension(path, ext: str, kind: str) -> Path:
@@ -98,27 +99,60 @@ def check_writable(path, ext: str) -> Path:
     return path
 
 
+def _write_temporary(path: Path, write: Callable[[BinaryIO], None],
+                     temporaries: list[Path]) -> None:
+    """``write(f)`` into a new temporary file beside ``path``, flushed to disk; its path is
+    added to ``temporaries`` as soon as it exists.
+
+    Created with ``os.open(..., 0o666)`` so the result gets the usual umask-derived
+    permissions (``tempfile`` would leave it at 0600)."""
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    temporaries.append(tmp)
+    with os.fdopen(fd, "wb") as f:
+        write(f)
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def _unlink_quietly(path: Path) -> None:
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+
+
 def write_atomic(path, write: Callable[[BinaryIO], None]) -> None:
     """Run ``write(f)`` on a temporary file beside ``path``, then rename it over ``path``.
 
-    The temporary file is created with ``os.open(..., 0o666)`` so the result gets the usual
-    umask-derived permissions (``tempfile`` would leave it at 0600). On any exception the
-    temporary file is removed and an existing ``path`` is left untouched.
+    On any exception the temporary file is removed and an existing ``path`` is left untouched.
     """
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    write_files_atomic({path: write})
+
+
+def write_files_atomic(writers) -> None:
+    """Write several files that belong together (a mesh, its material, its image): every
+    ``write(f)`` runs on a temporary file beside its path, and only when all of them have
+    succeeded are the temporary files renamed over their paths.
+
+    Parameters
+    ----------
+    writers : mapping of path -> callable
+        Each output path and the function that writes its bytes to a binary file object.
+
+    On any exception while writing, every temporary file is removed and no output is touched:
+    an error never leaves some of the files written and others not.
+    """
+    items = [(Path(path), write) for path, write in writers.items()]
+    temporaries: list[Path] = []
     try:
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
+        for path, write in items:
+            _write_temporary(path, write, temporaries)
+        for tmp, (path, _) in zip(temporaries, items):
+            os.replace(tmp, path)
     except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+        for tmp in temporaries:
+            _unlink_quietly(tmp)
         raise
 
 

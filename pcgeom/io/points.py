@@ -370,10 +370,13 @@ def read_points(path, min_points: int = 10, *, normals: bool = True) -> PointClo
 
 
 def _write_ply(
-    f: BinaryIO, V: np.ndarray, F: np.ndarray | None, N: np.ndarray | None = None
+    f: BinaryIO, V: np.ndarray, F: np.ndarray | None, N: np.ndarray | None = None,
+    UV: np.ndarray | None = None,
 ) -> None:
-    """Binary little-endian PLY with float64 coordinates (trimesh's export is float32), and
-    float64 ``nx ny nz`` when ``N`` is given."""
+    """Binary little-endian PLY with float64 coordinates (trimesh's export is float32),
+    float64 ``nx ny nz`` when ``N`` is given and float64 ``texture_u texture_v`` when ``UV``
+    is (the names MeshLab, trimesh and Open3D read as per-vertex texture coordinates; trimesh
+    would write ``s t``)."""
     header = [
         "ply",
         "format binary_little_endian 1.0",
@@ -385,11 +388,14 @@ def _write_ply(
     ]
     if N is not None:
         header += ["property double nx", "property double ny", "property double nz"]
+    if UV is not None:
+        header += ["property double texture_u", "property double texture_v"]
     if F is not None:
         header += [f"element face {len(F)}", "property list uchar int vertex_indices"]
     header.append("end_header\n")
     f.write("\n".join(header).encode("ascii"))
-    rows = V if N is None else np.hstack([V, N])  # x y z [nx ny nz]: one record per vertex
+    # x y z [nx ny nz] [texture_u texture_v]: one record per vertex
+    rows = np.hstack([V] + [A for A in (N, UV) if A is not None])
     f.write(np.ascontiguousarray(rows, dtype="<f8").tobytes())
     if F is not None:
         rows = np.empty(len(F), dtype=[("n", "u1"), ("v", "<i4", (3,))])
@@ -398,8 +404,9 @@ def _write_ply(
         f.write(rows.tobytes())
 
 
-def write_ply_atomic(path, vertices, faces=None, normals=None) -> None:
-    """Write vertices (and optional triangles and normals) as a binary PLY, atomically.
+def write_ply_atomic(path, vertices, faces=None, normals=None, uv=None) -> None:
+    """Write vertices (and optional triangles, normals and texture coordinates) as a binary
+    PLY, atomically.
 
     Parameters
     ----------
@@ -412,6 +419,10 @@ def write_ply_atomic(path, vertices, faces=None, normals=None) -> None:
     normals : (N, 3) array_like, optional
         One normal per vertex, written as float64 ``nx ny nz`` after scaling to unit length
         (:func:`pcgeom.cloud.validate_normals`); :func:`read_points` gives them back.
+    uv : (N, 2) array_like, optional
+        Finite texture coordinates, one pair per vertex, written as float64 ``texture_u
+        texture_v`` (``trimesh.load(path).visual.uv`` gives them back; MeshLab reads them in
+        float32).
 
     Raises
     ------
@@ -420,7 +431,7 @@ def write_ply_atomic(path, vertices, faces=None, normals=None) -> None:
         out of range (:func:`pcgeom.cloud.validate_faces`), or normals of the wrong shape or
         count, not finite, or of zero length (:func:`pcgeom.cloud.validate_normals`).
     ValueError
-        Vertices of the wrong shape or not finite.
+        Vertices or texture coordinates of the wrong shape or not finite.
     """
     path = check_writable(path, "ply")
     V = np.asarray(vertices, dtype=np.float64)
@@ -430,4 +441,11 @@ def write_ply_atomic(path, vertices, faces=None, normals=None) -> None:
         raise ValueError("vertices: contain NaN or inf")
     F = validate_faces(faces, len(V))
     N = validate_normals(normals, len(V))
-    write_atomic(path, lambda f: _write_ply(f, V, F, N))
+    UV = None
+    if uv is not None:
+        UV = np.asarray(uv, dtype=np.float64)
+        if UV.shape != (len(V), 2):
+            raise ValueError(f"uv: expected shape ({len(V)}, 2), got {UV.shape}")
+        if not np.isfinite(UV).all():
+            raise ValueError("uv: contains NaN or inf")
+    write_atomic(path, lambda f: _write_ply(f, V, F, N, UV))

@@ -115,7 +115,9 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     and the start of the history record."""
     settings = config.local_mesh
     mesh, normals, record = mesh_cloud(Xn, normals, settings.neighbours,
-                                       settings.normal_neighbours, progress=progress)
+                                       settings.normal_neighbours, progress=progress,
+                                       normal_scales=settings.normal_scales,
+                                       normal_tolerance=settings.normal_tolerance)
     uv = lscm_free(Xn, mesh)
     record["solver"] = solver_name()  # the sparse factorization that ran
     return uv, mesh, normals, record

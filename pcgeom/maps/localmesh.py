@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cloud import find_outliers, local_pca, surface_variation
+from ..cloud import adaptive_pca, find_outliers, local_pca, surface_variation
 from ..errors import InputError
 from ..progress import Progress
 from .normals import orient_normals
@@ -40,9 +40,19 @@ MIN_MESHED = 0.5
 """The smallest share of the points the local mesh's main part must hold."""
 
 MAX_VARIATION = 0.15
-"""Largest median surface variation (:func:`pcgeom.cloud.surface_variation`) of a surface;
-a volume of random points gives about 0.19 (16 neighbours), a smooth scan below 0.01, and
-face_human_choi with noise of half its mean edge length 0.12."""
+"""Largest median surface variation (:func:`pcgeom.cloud.surface_variation`) of a surface at
+:data:`SURFACE_NEIGHBOURS` neighbours; a volume of random points gives about 0.19, a smooth
+scan below 0.01, and face_human_choi with noise of half its mean edge length 0.12."""
+
+SURFACE_NEIGHBOURS = 16
+"""Neighbours of the surface test's PCA."""
+
+FLAT_VARIATION = 0.03
+"""... or largest median surface variation at each point's own scale
+(:func:`pcgeom.cloud.adaptive_pca`): a surface whose sheets come within a couple of spacings
+fails the test at 16 neighbours (a pleat with sheets 1.5 spacings apart: 0.23) but is flat at
+its points' own scales (0.000); a volume of random points is not (0.087: a few of its points
+are never flat)."""
 
 NOT_A_SURFACE = ("the cloud does not look like one sampled surface (its points fill a volume, "
                  "or most are strays); check the input")
@@ -385,8 +395,9 @@ def _interpolate_rest(X: np.ndarray, U: np.ndarray, known: np.ndarray) -> np.nda
 
 
 def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
-               normal_neighbours: int, *, progress: bool
-               ) -> tuple[LocalMesh, np.ndarray, dict]:
+               normal_neighbours: int, *, progress: bool,
+               normal_scales: tuple[int, ...] = (6, 8, 12, 16, 24),
+               normal_tolerance: float = 0.03) -> tuple[LocalMesh, np.ndarray, dict]:
     """Outliers, the surface test, normals and the local mesh of a normalized cloud.
 
     Parameters
@@ -396,7 +407,10 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     normals : (N, 3) float64 or None
         Their oriented unit normals; None: estimated (PCA) and oriented by propagation.
     neighbours, normal_neighbours : int
-        Nearest neighbours of each fan, and of each normal's PCA.
+        Nearest neighbours of each fan, and of the graph that orients estimated normals.
+    normal_scales, normal_tolerance
+        The neighbourhood PCA's scales (:func:`pcgeom.cloud.adaptive_pca`): the surface test
+        and, without normals, their estimate.
 
     Returns
     -------
@@ -417,16 +431,23 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     """
     outlier = find_outliers(Xn)
     inliers = np.flatnonzero(~outlier)
-    # One neighbourhood PCA serves the surface test and, without normals, their estimate.
-    values, vectors = local_pca(Xn[inliers], normal_neighbours)
-    if np.median(surface_variation(values)) > MAX_VARIATION:
+    # One neighbourhood PCA serves the surface test and, without normals, their estimate;
+    # each point at the scale where its neighbours lie flattest, so that the facing sheet of
+    # a fold a couple of spacings away stays out.
+    variation, estimated, scale, per_scale = adaptive_pca(Xn[inliers], normal_scales,
+                                                          normal_tolerance)
+    scales = sorted({min(int(k), len(inliers) - 1) for k in normal_scales})
+    if SURFACE_NEIGHBOURS in scales:
+        at_16 = per_scale[:, scales.index(SURFACE_NEIGHBOURS)]
+    else:
+        at_16 = surface_variation(local_pca(Xn[inliers], SURFACE_NEIGHBOURS)[0])
+    if np.median(at_16) > MAX_VARIATION and np.median(variation) > FLAT_VARIATION:
         raise InputError(NOT_A_SURFACE)
     source = "input"
     if normals is None:
         source = "estimated"
         normals = np.zeros_like(Xn)
-        normals[inliers] = orient_normals(Xn[inliers], np.ascontiguousarray(vectors[:, :, 0]),
-                                          normal_neighbours)
+        normals[inliers] = orient_normals(Xn[inliers], estimated, normal_neighbours)
     mesh = local_mesh(Xn, normals, neighbours, exclude=outlier, progress=progress)
     meshed = float(mesh.main.mean())
     if meshed < MIN_MESHED:
@@ -435,7 +456,8 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     if mesh.looks_closed:
         raise InputError(CLOSED_SURFACE)
     record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
-              "neighbours": neighbours, "faces": mesh.n_faces,
+              "neighbours": neighbours, "normal_scale": float(np.median(scale)),
+              "faces": mesh.n_faces,
               "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),
               "unmeshed": int((~mesh.main).sum())}
     return mesh, normals, record

@@ -23,7 +23,7 @@ oriented wherever the map is one-to-one (its normal is the one the map's orienta
 
 from __future__ import annotations
 
-from .export import MESH_FORMATS, check_mesh_path, write_mesh
+from .export import MESH_FORMATS, check_mesh_path, texture_paths, write_mesh
 from .gmsh_mesh import mesh_domain, mesh_region, require_gmsh
 from .lifting import lift, map_delaunay
 from .report import mesh_report
@@ -31,4 +31,4 @@ from .surface import SIZES, reconstruct_on_domain, reconstruct_surface
 
 __all__ = ["reconstruct_surface", "reconstruct_on_domain", "lift", "mesh_region",
            "mesh_domain", "map_delaunay", "mesh_report", "SIZES",
-           "require_gmsh", "MESH_FORMATS", "check_mesh_path", "write_mesh"]
+           "require_gmsh", "MESH_FORMATS", "check_mesh_path", "texture_paths", "write_mesh"]

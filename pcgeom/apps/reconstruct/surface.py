@@ -17,7 +17,7 @@ SIZES = ("uniform", "adaptive")
 
 
 def reconstruct_surface(points, U, loops: BoundaryLoops, *, size: str = "uniform",
-                        target_vertices: int = 5000, lambda_inv=None):
+                        target_vertices: int = 5000, lambda_inv=None, return_uv: bool = False):
     """Triangle mesh of the surface sampled by ``points``, remeshed in its free-boundary map.
 
     Parameters
@@ -38,12 +38,17 @@ def reconstruct_surface(points, U, loops: BoundaryLoops, *, size: str = "uniform
         loops' points).
     lambda_inv : (N,) array_like, optional
         ``ParamResult.lambda_inv``; needed by ``"adaptive"``, unused by ``"uniform"``.
+    return_uv : bool
+        Also return each vertex's position in the map (the mesh was made there): its texture
+        coordinates up to :func:`pcgeom.apps.texture.uv_scaling`.
 
     Returns
     -------
     V : (K, 3) float64
     F : (M, 3) int64
         Edge-manifold when the loops are simple, counter-clockwise in the map.
+    UV : (K, 2) float64
+        Only with ``return_uv``: the vertices in the map (``V`` lifts them).
     report : dict
         :func:`mesh_report`, plus ``n_outside`` (vertices lifted by the outside rule),
         ``size`` and ``target_vertices``.
@@ -69,7 +74,7 @@ def reconstruct_surface(points, U, loops: BoundaryLoops, *, size: str = "uniform
     V, outside = lift(P, U, loops.triangles, Q)
     report = mesh_report(V, F, P)
     report.update(n_outside=int(outside.sum()), size=size, target_vertices=int(target_vertices))
-    return V, F, report
+    return (V, F, Q, report) if return_uv else (V, F, report)
 
 
 def _checked_input(points, U, size: str, lambda_inv) -> tuple[np.ndarray, np.ndarray, object]:
@@ -92,7 +97,7 @@ def _checked_input(points, U, size: str, lambda_inv) -> tuple[np.ndarray, np.nda
 
 
 def reconstruct_on_domain(points, U, domain, *, size: str = "uniform",
-                          target_vertices: int = 5000, lambda_inv=None):
+                          target_vertices: int = 5000, lambda_inv=None, return_uv: bool = False):
     """Triangle mesh of the surface sampled by ``points``, remeshed on the bounded domain its
     map was made onto (e.g. ``pcgeom param X --domain disk``).
 
@@ -116,13 +121,15 @@ def reconstruct_on_domain(points, U, domain, *, size: str = "uniform",
         Its map onto ``domain`` (``ParamResult.uv``).
     domain : Domain
         The bounded domain of the map (``ParamResult.domain``).
-    size, target_vertices, lambda_inv
+    size, target_vertices, lambda_inv, return_uv
         As in :func:`reconstruct_surface`.
 
     Returns
     -------
     V : (K, 3) float64
     F : (M, 3) int64
+    UV : (K, 2) float64
+        Only with ``return_uv``: the vertices in the domain.
     report : dict
         :func:`mesh_report`, plus ``n_outside``, ``n_domain_loops``, ``size``,
         ``target_vertices`` and ``domain`` (its spec).
@@ -145,4 +152,4 @@ def reconstruct_on_domain(points, U, domain, *, size: str = "uniform",
     report = mesh_report(V, F, P)
     report.update(n_outside=int(outside.sum()), n_domain_loops=len(domain.boundary_loops()),
                   size=size, target_vertices=int(target_vertices), domain=domain.spec)
-    return V, F, report
+    return (V, F, Q, report) if return_uv else (V, F, report)

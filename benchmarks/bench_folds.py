@@ -1,0 +1,159 @@
+"""Benchmark folded surfaces without normals: a pleated sheet whose sheets lie 1.5 to 2.5 point
+spacings apart (issue 25).
+
+:func:`pcgeom.synthetic.pleated_sheet` (four half-circle folds, a developable sheet with its
+true mesh) is written bare and with its normals; ``pcgeom param`` runs on each as a user runs
+it (harness.param_runs, ``fast``, several seeds), and in this process the map with the normal
+estimate of before (16 neighbours for every point, ``LocalMeshConfig.normal_scales = (16,)``)
+for contrast; libigl's LSCM on the true mesh is the reference. ``pcgeom boundary`` with no
+option runs on the bare file: its loops, and the precision and recall of their points against
+the true mesh's boundary. Replaces the section ``bench_folds`` of BENCHMARKS.md.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import harness as H
+import numpy as np
+
+GAPS = (1.5, 2.0, 2.5)
+"""Distances between facing sheets, in mean spacings."""
+
+POINTS = 6000
+"""Points of each pleat."""
+
+FLIP_TARGET = 0.3
+"""Largest share of flipped true triangles, percent (issue 25)."""
+
+LSCM_RATIO = 2.0
+"""Largest angle distortion against LSCM on the true mesh (issue 25)."""
+
+
+def rows_of(gap: float, seeds, work: Path) -> tuple[list[dict], dict]:
+    """The map rows of one pleat and its boundary row."""
+    import pcgeom
+    from bench_apps import boundary_scores
+    from pcgeom.apps.baselines import lscm
+    from pcgeom.synthetic import pleated_sheet
+
+    sheet = pleated_sheet(POINTS, folds=4, gap=gap)
+    V, F = sheet.points, sheet.faces
+    name = f"pleat, sheets {gap:g} spacings apart"
+    bare = work / f"pleat_{gap:g}_bare.xyz"
+    np.savetxt(bare, V)
+    normals = work / f"pleat_{gap:g}_normals.xyz"
+    np.savetxt(normals, np.column_stack([V, sheet.normals]), header="x y z nx ny nz",
+               comments="")
+    rows = []
+    for kind, src in (("bare", bare), ("its normals", normals)):
+        runs = H.param_runs(src, V, F, work, seeds, check=False)
+        rows.append(H.summary(runs, case=name, points=len(V), input=kind,
+                              method="pcgeom `fast`"))
+    fast = pcgeom.get_preset("fast")
+    before = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh,
+                                                                      normal_scales=(16,)))
+    try:
+        result, seconds = H.timed(pcgeom.parametrize, V, config=before, seed=seeds[0],
+                                  progress=False)
+        run = {"seed": seeds[0], "wall_s": seconds, **H.score_map(result.uv, V, F)}
+    except pcgeom.InputError as err:
+        run = {"seed": seeds[0], "wall_s": float("nan"), "error": str(err)}
+    rows.append(H.summary([run], case=name, points=len(V), input="bare",
+                          method="16-neighbour normals (before; in process)"))
+    rows.append(H.summary([H.reference(lscm, V, F)], case=name, points=len(V),
+                          input="true mesh", method="libigl LSCM", normals="-"))
+    loops = work / f"pleat_{gap:g}_loops.json"
+    run = H.pcgeom_cli("boundary", bare, "--out", loops, check=False)
+    boundary = {"case": name, "seconds": run["wall_s"], "error": run["error"]}
+    if not run["error"]:
+        boundary.update(boundary_scores(json.loads(loops.read_text())["loops"], F))
+    H.log(f"{name}: boundary {boundary.get('loops', boundary['error'])} loops")
+    return rows, boundary
+
+
+def _cell(row: dict, key: str, fmt: str) -> str:
+    if row.get("n_ok") == 0:
+        return "failed: " + "; ".join(e for _, e in row["errors"])[:80]
+    value = row.get(key)
+    return "-" if value is None else format(value, fmt)
+
+
+def verdicts(rows, boundaries) -> list[str]:
+    lines = []
+    for case in dict.fromkeys(r["case"] for r in rows):
+        ours = next(r for r in rows if r["case"] == case and r["input"] == "bare"
+                    and r["method"] == "pcgeom `fast`")
+        ref = next(r for r in rows if r["case"] == case and r["method"] == "libigl LSCM")
+        if ours["n_ok"] == 0:
+            lines.append(f"- {case}, bare: FAILED")
+            continue
+        ratio = ours["rad"] / ref["rad"]
+        lines.append(
+            f"- {case}, bare: angle {ours['rad']:.4f} rad = {ratio:.1f}x LSCM (<= "
+            f"{LSCM_RATIO:g}x): {'PASS' if ratio <= LSCM_RATIO else 'FAIL'}; flipped "
+            f"{ours['flip_pct']:.2f}% (< {FLIP_TARGET:g}%): "
+            f"{'PASS' if ours['flip_pct'] < FLIP_TARGET else 'FAIL'}")
+    for b in boundaries:
+        if b["error"]:
+            lines.append(f"- {b['case']}, `pcgeom boundary`: FAILED ({b['error']})")
+            continue
+        ok = b["loops"] == b["true_loops"] and b["precision"] >= 0.95 and b["recall"] >= 0.95
+        lines.append(f"- {b['case']}, `pcgeom boundary` with no option: {b['loops']} loop(s) "
+                     f"(true {b['true_loops']}), precision {b['precision']:.3f}, recall "
+                     f"{b['recall']:.3f} (each >= 0.95): {'PASS' if ok else 'FAIL'}")
+    return lines
+
+
+def render(rows, boundaries, argv) -> str:
+    import os
+    import platform
+
+    return "\n".join([
+        "## Folded surfaces without normals (`benchmarks/bench_folds.py`)", "",
+        *H.header(argv, f"{os.cpu_count()} cores, Python {platform.python_version()}",
+                  f"load average at end {H.loadavg() or 'n/a'}"), "",
+        f"`pcgeom.synthetic.pleated_sheet({POINTS}, folds=4, gap=G)`: an accordion whose facing "
+        "sheets lie G mean spacings apart, each fold a half circle of radius G/2 spacings; "
+        "developable, so LSCM on its true mesh is nearly exact. `fast` by the CLI (medians "
+        "over the seeds; the bare file is `x y z`, the other carries the true normals); the "
+        "normal estimate of before (16 neighbours for every point) in this process. Angle "
+        "distortion and flips on the true triangles.", "",
+        *H.table([("case", "{case}"), ("input", "{input}"), ("method", "{method}"),
+                  ("runs", "{runs}"),
+                  ("mean abs angle, rad", lambda r: _cell(r, "rad", ".4f")),
+                  ("flipped", lambda r: _cell(r, "flip_pct", ".2f") + "%"),
+                  ("wall s", lambda r: _cell(r, "wall_s", ".1f"))], rows), "",
+        "`pcgeom boundary BARE --out loops.json` (no option), against the true mesh's "
+        "boundary points:", "",
+        *H.table([("case", "{case}"),
+                  ("loops (true)", lambda b: "failed" if b["error"]
+                   else f"{b['loops']} ({b['true_loops']})"),
+                  ("precision", lambda b: "-" if b["error"] else f"{b['precision']:.3f}"),
+                  ("recall", lambda b: "-" if b["error"] else f"{b['recall']:.3f}"),
+                  ("wall s", lambda b: f"{b['seconds']:.1f}")], boundaries), "",
+        "Targets (issue 25: within 2x LSCM on the true mesh, < 0.3% flipped; one loop, "
+        "precision and recall >= 0.95):", "", *verdicts(rows, boundaries)])
+
+
+def main(argv=None) -> int:
+    p = H.parser(__doc__)
+    p.add_argument("--seeds", nargs="*", type=int, default=[0, 1, 2])
+    p.add_argument("--gaps", nargs="*", type=float, default=list(GAPS))
+    args = p.parse_args(argv)
+    rows, boundaries = [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for gap in args.gaps:
+            r, b = rows_of(gap, args.seeds, Path(tmp))
+            rows += r
+            boundaries.append(b)
+    H.write_section(args.out, "bench_folds", render(rows, boundaries, argv))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
