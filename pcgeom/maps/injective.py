@@ -1547,8 +1547,9 @@ def _landmark_pairs(V: np.ndarray, U: np.ndarray, marks: list, weight: float):
             # the curve nearest to it on average; the targets of a curve no piece follows
             # pull as a Chamfer distance would.
             pieces = _pieces(V[i])
-            owner = np.array([np.argmin([np.mean(cKDTree(q[a:b]).query(U[i[p]])[0])
-                                         for a, b in curves]) for p in pieces])
+            trees = [cKDTree(q[a:b]) for a, b in curves]
+            owner = np.array([np.argmin([np.mean(tree.query(U[i[p]])[0]) for tree in trees])
+                              for p in pieces])
             left = np.ones(len(q), dtype=bool)
             for c, (a, b) in enumerate(curves):
                 mine = np.concatenate([pieces[k] for k in np.flatnonzero(owner == c)]
