@@ -1617,23 +1617,7 @@ def _curve_pairs(P: np.ndarray, u: np.ndarray, curve: np.ndarray) -> np.ndarray:
     cum = np.concatenate([[0.0], np.cumsum(seg)])
     length = cum[-1]
     closed = len(curve) > 3 and np.linalg.norm(curve[-1] - curve[0]) <= 2 * np.median(seg)
-    # Projection: the arc length of the nearest point on the nearest two segments.
-    from scipy.spatial import cKDTree
-
-    k = cKDTree(curve).query(u)[1]
-    best_s, best_d = None, None
-    for j in (np.clip(k - 1, 0, len(seg) - 1), np.clip(k, 0, len(seg) - 1)):
-        d = curve[j + 1] - curve[j]
-        t = np.clip(np.einsum("ij,ij->i", u - curve[j], d) / np.maximum(seg[j] ** 2, 1e-300),
-                    0.0, 1.0)
-        dist = np.linalg.norm(curve[j] + t[:, None] * d - u, axis=1)
-        if best_s is None:
-            best_s, best_d = cum[j] + t * seg[j], dist
-        else:
-            better = dist < best_d
-            best_s[better] = (cum[j] + t * seg[j])[better]
-            best_d[better] = dist[better]
-    s = best_s
+    s = _Rings._project(curve, cum, u)  # arc length of each point's nearest on the curve
     order = np.argsort(s, kind="stable")
     if len(order) == 1:
         spread = s[order]
