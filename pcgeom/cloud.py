@@ -17,6 +17,7 @@ __all__ = [
     "find_outliers",
     "local_pca",
     "adaptive_pca",
+    "scale_ladder",
     "surface_variation",
     "validate_normals",
     "validate_points",
@@ -330,6 +331,12 @@ def local_pca(X, neighbours: int = 16) -> tuple[np.ndarray, np.ndarray]:
     return np.linalg.eigh(np.einsum("nki,nkj->nij", Q, Q))
 
 
+def scale_ladder(scales, n: int) -> np.ndarray:
+    """The distinct neighbour counts of ``scales`` a cloud of ``n`` points allows (each at
+    most ``n - 1``), increasing: the columns of :func:`adaptive_pca`'s ``per_scale``."""
+    return np.array(sorted({min(int(k), n - 1) for k in scales}), dtype=np.int64)
+
+
 def adaptive_pca(X, scales=(6, 8, 12, 16, 24), tolerance: float = 0.03,
                  chunk: int = 100_000) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each point's neighbourhood PCA at the scale that fits a plane best: the largest of
@@ -371,7 +378,7 @@ def adaptive_pca(X, scales=(6, 8, 12, 16, 24), tolerance: float = 0.03,
     from scipy.spatial import cKDTree
 
     X = np.asarray(X, dtype=np.float64)
-    ks = np.array(sorted({min(int(k), len(X) - 1) for k in scales}), dtype=np.int64)
+    ks = scale_ladder(scales, len(X))
     _, nb = cKDTree(X).query(X, int(ks[-1]) + 1)
     variation = np.empty(len(X))
     normals = np.empty((len(X), 3))

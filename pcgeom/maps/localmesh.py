@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cloud import adaptive_pca, find_outliers, local_pca, surface_variation
+from ..cloud import adaptive_pca, find_outliers, local_pca, scale_ladder, surface_variation
 from ..errors import InputError
 from ..progress import Progress
 from .normals import orient_normals
@@ -436,9 +436,9 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     # a fold a couple of spacings away stays out.
     variation, estimated, scale, per_scale = adaptive_pca(Xn[inliers], normal_scales,
                                                           normal_tolerance)
-    scales = sorted({min(int(k), len(inliers) - 1) for k in normal_scales})
+    scales = scale_ladder(normal_scales, len(inliers))
     if SURFACE_NEIGHBOURS in scales:
-        at_16 = per_scale[:, scales.index(SURFACE_NEIGHBOURS)]
+        at_16 = per_scale[:, np.flatnonzero(scales == SURFACE_NEIGHBOURS)[0]]
     else:
         at_16 = surface_variation(local_pca(Xn[inliers], SURFACE_NEIGHBOURS)[0])
     if np.median(at_16) > MAX_VARIATION and np.median(variation) > FLAT_VARIATION:
