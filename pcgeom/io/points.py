@@ -404,6 +404,22 @@ def _write_ply(
         f.write(rows.tobytes())
 
 
+def check_uv(uv, n: int) -> np.ndarray:
+    """Texture coordinates as finite float64 of shape ``(n, 2)``, one pair per vertex.
+
+    Raises
+    ------
+    ValueError
+        Another shape, NaN or inf.
+    """
+    UV = np.asarray(uv, dtype=np.float64)
+    if UV.shape != (n, 2):
+        raise ValueError(f"uv: expected shape ({n}, 2), got {UV.shape}")
+    if not np.isfinite(UV).all():
+        raise ValueError("uv: contains NaN or inf")
+    return UV
+
+
 def write_ply_atomic(path, vertices, faces=None, normals=None, uv=None) -> None:
     """Write vertices (and optional triangles, normals and texture coordinates) as a binary
     PLY, atomically.
@@ -441,11 +457,5 @@ def write_ply_atomic(path, vertices, faces=None, normals=None, uv=None) -> None:
         raise ValueError("vertices: contain NaN or inf")
     F = validate_faces(faces, len(V))
     N = validate_normals(normals, len(V))
-    UV = None
-    if uv is not None:
-        UV = np.asarray(uv, dtype=np.float64)
-        if UV.shape != (len(V), 2):
-            raise ValueError(f"uv: expected shape ({len(V)}, 2), got {UV.shape}")
-        if not np.isfinite(UV).all():
-            raise ValueError("uv: contains NaN or inf")
+    UV = None if uv is None else check_uv(uv, len(V))
     write_atomic(path, lambda f: _write_ply(f, V, F, N, UV))

@@ -13,6 +13,7 @@ import numpy as np
 from ...cloud import validate_faces
 from ...errors import InputError
 from ...io import check_writable, write_files_atomic, write_ply_atomic
+from ...io.points import check_uv
 
 MESH_FORMATS = ("ply", "obj")
 """File formats :func:`write_mesh` writes, by extension."""
@@ -112,11 +113,7 @@ def write_mesh(path, V, F, uv=None, texture=None) -> Path:
         raise ValueError("V: contains NaN or inf")
     F = validate_faces(F, len(V), name="F", allow_empty=False)
     if uv is not None:
-        uv = np.asarray(uv, dtype=np.float64)
-        if uv.shape != (len(V), 2):
-            raise ValueError(f"uv: expected shape ({len(V)}, 2), got {uv.shape}")
-        if not np.isfinite(uv).all():
-            raise ValueError("uv: contains NaN or inf")
+        uv = check_uv(uv, len(V))
     elif texture is not None:
         raise ValueError("texture: needs uv (texture coordinates)")
     if path.suffix.lower() == ".ply":
