@@ -93,9 +93,6 @@ class LocalMesh:
         return self.boundary_edges < 0.5 * np.sqrt(len(self.main))
 
 
-_MERGE_CHUNK = 100_000
-"""Candidate triangles turned into Python lists at a time by the merge."""
-
 _MIN_QUALITY = 1e-4
 """Triangles of worse shape quality (1: equilateral, 0: degenerate) are never kept."""
 
@@ -188,11 +185,58 @@ def _stars(X: np.ndarray, normals: np.ndarray, nb: np.ndarray, idx: np.ndarray) 
     return np.column_stack([idx[r], js[r, c], js[r, ni[r, c]]])
 
 
+def _unique_rows(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of the non-negative integer array ``A`` (M, c), in lexicographic
+    order, and how often each occurs: ``np.unique(A, axis=0, return_counts=True)`` by one
+    ``lexsort`` (several times faster than unique's row view at a million rows)."""
+    if len(A) == 0:
+        return A.reshape(0, A.shape[1]), np.zeros(0, dtype=np.int64)
+    order = np.lexsort(A.T[::-1])
+    A = A[order]
+    first = np.ones(len(A), dtype=bool)
+    first[1:] = (A[1:] != A[:-1]).any(axis=1)
+    starts = np.flatnonzero(first)
+    return A[starts], np.diff(np.append(starts, len(A)))
+
+
+def _greedy_claims(edges: np.ndarray) -> np.ndarray:
+    """Which triangles a greedy pass in row order keeps, when each claims the three directed
+    edges ``edges`` (M, 3) (integer keys) and a triangle is kept only if none of its edges is
+    claimed by a kept triangle before it.
+
+    The same set as the sequential loop, found in rounds of whole-array steps: a triangle
+    that comes first among the undecided ones on each of its edges is kept by the loop too
+    (every earlier triangle sharing an edge is already out), so each round keeps all of them
+    and drops the undecided triangles they block (the lexicographically first maximal
+    independent set of the conflict graph, computed as in Luby's algorithm with the row order
+    as priorities). Rounds on the fans of a 300k-point cloud: about ten.
+    """
+    m = len(edges)
+    ids = np.unique(edges, return_inverse=True)[1].reshape(m, 3)
+    n_edges = int(ids.max(initial=-1)) + 1
+    kept = np.zeros(m, dtype=bool)
+    claimed = np.zeros(n_edges, dtype=bool)
+    open_ = np.arange(m)  # undecided triangles, in row order
+    while len(open_):
+        first = np.full(n_edges, m, dtype=np.int64)
+        np.minimum.at(first, ids[open_].ravel(), np.repeat(open_, 3))
+        win = open_[(first[ids[open_]] == open_[:, None]).all(axis=1)]
+        kept[win] = True
+        claimed[ids[win].ravel()] = True
+        open_ = open_[~claimed[ids[open_]].any(axis=1)]
+    return kept
+
+
 def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray
            ) -> tuple[np.ndarray, int]:
     """Greedy edge-manifold, consistently oriented union of the fans' triangles, and the
-    number of distinct candidates."""
-    tris, votes = np.unique(np.sort(candidates, axis=1), axis=0, return_counts=True)
+    number of distinct candidates.
+
+    The candidates, oriented by their corners' normals, are taken by votes (how many fans
+    made them), then shape quality; one is kept when none of its directed edges is taken
+    (each edge then has at most two triangles, on opposite sides: manifold and oriented).
+    """
+    tris, votes = _unique_rows(np.sort(candidates, axis=1))
     if len(tris) == 0:
         return tris, 0
     cross = np.cross(X[tris[:, 1]] - X[tris[:, 0]], X[tris[:, 2]] - X[tris[:, 0]])
@@ -204,24 +248,11 @@ def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray
     # Slivers (collinear points, as on a regular grid) make the cotangent weights blow up.
     order = np.lexsort((-quality, -votes))
     order = order[quality[order] > _MIN_QUALITY]
-    # Edges as integer keys (a * n + b): a third of the memory of tuples at 1M points.
     n = int(tris.max()) + 1
-    directed: set[int] = set()
-    uses: dict[int, int] = {}
-    keep = []
-    for start in range(0, len(order), _MERGE_CHUNK):
-        block = order[start:start + _MERGE_CHUNK]
-        for t, (a, b, c) in zip(block.tolist(), tris[block].tolist()):
-            edges = ((a, b), (b, c), (c, a))
-            if any(x * n + y in directed or uses.get(min(x, y) * n + max(x, y), 0) >= 2
-                   for x, y in edges):
-                continue
-            keep.append(t)
-            for x, y in edges:
-                directed.add(x * n + y)
-                key = min(x, y) * n + max(x, y)
-                uses[key] = uses.get(key, 0) + 1
-    return tris[np.sort(np.asarray(keep, dtype=np.int64))], len(tris)
+    ranked = tris[order]
+    edges = ranked * n + np.roll(ranked, -1, axis=1)  # a -> b, b -> c, c -> a as a * n + b
+    keep = order[_greedy_claims(edges)]
+    return tris[np.sort(keep)], len(tris)
 
 
 def _main_part(faces: np.ndarray, n: int) -> np.ndarray:
