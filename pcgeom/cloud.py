@@ -7,6 +7,7 @@ Every check on user arrays lives here, once: :func:`validate_points` for coordin
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 
 import numpy as np
@@ -14,6 +15,7 @@ import numpy as np
 from .errors import InputError
 
 __all__ = [
+    "Neighbours",
     "find_outliers",
     "local_pca",
     "adaptive_pca",
@@ -259,7 +261,67 @@ OFFSET_FACTOR = 3.0
 """... or when it sits farther than this many median spacings off its neighbours' plane."""
 
 
-def find_outliers(X, neighbours: int = 16) -> np.ndarray:
+@dataclasses.dataclass(frozen=True, eq=False)
+class Neighbours:
+    """Each point's nearest points, itself first: one k-d tree query that a cloud's steps
+    share (strays, noise, normals, their orientation, the fans), each reading the first
+    columns it needs.
+
+    Six queries of one 300k-point cloud took 9 s of a 45 s map; rows of a query with more
+    neighbours are the same as a smaller query's first columns (ties between equally distant
+    points aside).
+    """
+
+    dist: np.ndarray
+    """(N, k + 1) float64: distances, ascending; column 0 (the point itself) is 0."""
+    index: np.ndarray
+    """(N, k + 1) int64: the neighbours' rows; column 0 is the row itself."""
+
+    @classmethod
+    def of(cls, X, k: int) -> "Neighbours":
+        """The ``k`` nearest points of every point of ``X`` (distinct points; at most
+        ``len(X) - 1``), by scipy's k-d tree on all cores."""
+        from scipy.spatial import cKDTree
+
+        X = np.asarray(X, dtype=np.float64)
+        dist, index = cKDTree(X).query(X, min(int(k), len(X) - 1) + 1, workers=-1)
+        return cls(dist.reshape(len(X), -1), index.reshape(len(X), -1))
+
+    @property
+    def k(self) -> int:
+        """Neighbours per point, the point itself not counted."""
+        return self.index.shape[1] - 1
+
+    def first(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Distances and rows of the ``k`` nearest, itself first (all the others in a cloud
+        of at most ``k + 1`` points)."""
+        if k > self.k and self.k < len(self.index) - 1:
+            raise ValueError(f"{k} neighbours asked of a query of {self.k}")
+        return self.dist[:, :k + 1], self.index[:, :k + 1]
+
+    def among(self, keep: np.ndarray, X) -> "Neighbours":
+        """The neighbours within the points ``keep`` (bool, (N,)), rows renumbered as in
+        ``X[keep]``: a row that named a dropped point is queried again among the kept."""
+        from scipy.spatial import cKDTree
+
+        keep = np.asarray(keep, dtype=bool)
+        rows = np.flatnonzero(keep)
+        remap = np.full(len(keep), -1, dtype=np.int64)
+        remap[rows] = np.arange(len(rows))
+        index = remap[self.index[rows]]
+        dist = self.dist[rows]
+        k = min(self.k, len(rows) - 1)
+        lost = np.flatnonzero((index < 0).any(axis=1) | (k < self.k))
+        index, dist = index[:, :k + 1], dist[:, :k + 1]
+        if len(lost):
+            Xk = np.asarray(X, dtype=np.float64)[rows]
+            d, i = cKDTree(Xk).query(Xk[lost], k + 1, workers=-1)
+            dist[lost], index[lost] = d.reshape(len(lost), -1), i.reshape(len(lost), -1)
+        return Neighbours(dist, index)
+
+
+def find_outliers(X, neighbours: int = 16, *, knn: Neighbours | None = None
+                  ) -> np.ndarray:
     """Stray points: far from the others, or off the surface their neighbours sample.
 
     Two tests, each against the cloud's own scale (medians, which the strays cannot pull):
@@ -277,43 +339,53 @@ def find_outliers(X, neighbours: int = 16) -> np.ndarray:
     ----------
     X : (N, 3) array_like
         Distinct points.
+    knn : Neighbours, optional
+        Their nearest points, when already found (at least ``neighbours`` each).
 
     Returns
     -------
     (N,) bool
         True for an outlier.
     """
-    from scipy.spatial import cKDTree
-
     X = np.asarray(X, dtype=np.float64)
-    k = min(neighbours, len(X) - 1)
-    dist, nb = cKDTree(X).query(X, k + 1)
+    dist, nb = (knn if knn is not None else Neighbours.of(X, neighbours)).first(neighbours)
     d = dist[:, 1:9].mean(axis=1)
     # Against the neighbours' own d: scans are sampled more densely in some places.
     isolated = d > OUTLIER_FACTOR * np.median(d[nb[:, 1:]], axis=1)
     # Height of x_i over the quadric fitted to its neighbours in their PCA frame (a plane
-    # would call the tip of a sharp, coarsely sampled peak an outlier).
-    P = X[nb[:, 1:]]
-    centre = P.mean(axis=1)
-    Q = P - centre[:, None, :]
-    _, frame = np.linalg.eigh(np.einsum("nki,nkj->nij", Q, Q))  # columns: n, e1, e2
-    local = np.einsum("nkd,nde->nke", Q, frame)
-    own = np.einsum("nd,nde->ne", X - centre, frame)
-
-    def basis(xy):
-        x, y = xy[..., 1], xy[..., 2]
-        return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
-
-    A = basis(local)  # (N, k, 6)
-    AtA = np.einsum("nki,nkj->nij", A, A) + 1e-12 * np.eye(6)
-    coef = np.linalg.solve(AtA, np.einsum("nki,nk->ni", A, local[..., 0])[..., None])[..., 0]
-    offset = np.abs(own[:, 0] - np.einsum("ni,ni->n", basis(own), coef))
+    # would call the tip of a sharp, coarsely sampled peak an outlier). In blocks: a
+    # million points' fits at once would hold 1 GB of basis values.
+    offset = np.empty(len(X))
+    for s in range(0, len(X), _FIT_CHUNK):
+        P = X[nb[s:s + _FIT_CHUNK, 1:]]
+        centre = P.mean(axis=1)
+        Q = P - centre[:, None, :]
+        _, frame = np.linalg.eigh(np.matmul(Q.transpose(0, 2, 1), Q))  # columns: n, e1, e2
+        local = np.matmul(Q, frame)  # (n, k, 3)
+        own = np.matmul((X[s:s + _FIT_CHUNK] - centre)[:, None, :], frame)  # (n, 1, 3)
+        A = _quadric_rows(local)  # (n, k, 6)
+        At = A.transpose(0, 2, 1)
+        coef = np.linalg.solve(np.matmul(At, A) + 1e-12 * np.eye(6),
+                               np.matmul(At, local[..., :1]))  # (n, 6, 1)
+        offset[s:s + _FIT_CHUNK] = np.abs(own[:, 0, 0]
+                                          - np.matmul(_quadric_rows(own), coef)[:, 0, 0])
     return isolated | (offset > OFFSET_FACTOR * np.median(dist[:, 1]))
 
 
-def local_pca(X, neighbours: int = 16) -> tuple[np.ndarray, np.ndarray]:
+_FIT_CHUNK = 65_536
+"""Points per block of :func:`find_outliers`' quadric fits."""
+
+
+def _quadric_rows(local: np.ndarray) -> np.ndarray:
+    """``[1, x, y, x^2, x y, y^2]`` of local coordinates ``(..., 3)`` (height, x, y)."""
+    x, y = local[..., 1], local[..., 2]
+    return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
+
+
+def local_pca(X, neighbours: int = 16, *, knn: Neighbours | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
     """Eigen-decomposition of each point's neighbourhood covariance (itself and its
-    ``neighbours`` nearest points).
+    ``neighbours`` nearest points; ``knn``: those points, when already found).
 
     Returns
     -------
@@ -322,11 +394,8 @@ def local_pca(X, neighbours: int = 16) -> tuple[np.ndarray, np.ndarray]:
     vectors : (N, 3, 3) float64
         Unit eigenvectors as columns; ``vectors[:, :, 0]`` is the (unoriented) normal.
     """
-    from scipy.spatial import cKDTree
-
     X = np.asarray(X, dtype=np.float64)
-    k = min(neighbours, len(X) - 1)
-    _, nb = cKDTree(X).query(X, k + 1)
+    nb = (knn if knn is not None else Neighbours.of(X, neighbours)).first(neighbours)[1]
     Q = X[nb] - X[nb].mean(axis=1, keepdims=True)
     return np.linalg.eigh(np.einsum("nki,nkj->nij", Q, Q))
 
@@ -338,7 +407,8 @@ def scale_ladder(scales, n: int) -> np.ndarray:
 
 
 def adaptive_pca(X, scales=(6, 8, 12, 16, 24), tolerance: float = 0.03,
-                 chunk: int = 100_000) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 chunk: int = 100_000, *, knn: Neighbours | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each point's neighbourhood PCA at the scale that fits a plane best: the largest of
     ``scales`` (neighbour counts) whose surface variation is within ``tolerance`` of the
     smallest over all of them.
@@ -363,6 +433,8 @@ def adaptive_pca(X, scales=(6, 8, 12, 16, 24), tolerance: float = 0.03,
         How much more variation than the flattest scale a larger one may have.
     chunk : int
         Points per block (bounds the memory: ``chunk * max(scales) * 9`` floats).
+    knn : Neighbours, optional
+        The points' nearest points, when already found (at least ``max(scales)`` each).
 
     Returns
     -------
@@ -375,11 +447,9 @@ def adaptive_pca(X, scales=(6, 8, 12, 16, 24), tolerance: float = 0.03,
     per_scale : (N, S) float64
         The surface variation at each of the ``S`` distinct scales, in increasing order.
     """
-    from scipy.spatial import cKDTree
-
     X = np.asarray(X, dtype=np.float64)
     ks = scale_ladder(scales, len(X))
-    _, nb = cKDTree(X).query(X, int(ks[-1]) + 1)
+    nb = (knn if knn is not None else Neighbours.of(X, int(ks[-1]))).first(int(ks[-1]))[1]
     variation = np.empty(len(X))
     normals = np.empty((len(X), 3))
     chosen = np.empty(len(X), dtype=np.int64)

@@ -54,7 +54,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .cloud import find_outliers, local_pca, surface_variation
+from .cloud import Neighbours, find_outliers, local_pca, surface_variation
 from .config import DenoiseConfig
 
 __all__ = ["NoiseEstimate", "estimate_noise", "fit_heights", "denoise_points"]
@@ -98,7 +98,8 @@ def _neighbours(X: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     return cKDTree(X).query(X, min(k, len(X)))
 
 
-def estimate_noise(X, neighbours: int = 16, normals=None) -> NoiseEstimate:
+def estimate_noise(X, neighbours: int = 16, normals=None, *, knn: Neighbours | None = None
+                   ) -> NoiseEstimate:
     """The spacing and the noise level of a cloud (step 1 of the module's description).
 
     Parameters
@@ -110,6 +111,8 @@ def estimate_noise(X, neighbours: int = 16, normals=None) -> NoiseEstimate:
     normals : (N, 3) array_like, optional
         Oriented normals: each fit keeps the neighbours whose normal agrees with its point's
         (``n_i . n_j > 0``), so that the other sheet of a fold does not read as noise.
+    knn : Neighbours, optional
+        The points' nearest points, when already found (at least ``neighbours - 1`` each).
 
     Returns
     -------
@@ -117,7 +120,7 @@ def estimate_noise(X, neighbours: int = 16, normals=None) -> NoiseEstimate:
         ``std`` and ``spacing`` in the cloud's units; ``relative`` is their ratio.
     """
     X = np.asarray(X, dtype=np.float64)
-    _, nb = _neighbours(X, neighbours)
+    nb = (knn if knn is not None else Neighbours.of(X, neighbours - 1)).first(neighbours - 1)[1]
     rms = np.empty(len(X))
     gaps = np.empty(len(X))
     for s in range(0, len(X), _CHUNK):
@@ -202,7 +205,8 @@ def fit_heights(X, width: float, spacing: float, neighbours: int = 96,
 
 
 def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=None,
-                   *, estimate: NoiseEstimate | None = None) -> tuple[np.ndarray, dict]:
+                   *, estimate: NoiseEstimate | None = None, outlier: np.ndarray | None = None,
+                   knn: Neighbours | None = None) -> tuple[np.ndarray, dict]:
     """The cloud moved onto its fitted surface, when ``config`` says so.
 
     Parameters
@@ -220,6 +224,11 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
         the fitted points' at 0.063).
     estimate : NoiseEstimate, optional
         The cloud's noise estimate, if already made.
+    outlier : (N,) bool, optional
+        The cloud's strays (:func:`pcgeom.cloud.find_outliers`), if already found.
+    knn : Neighbours, optional
+        The points' nearest points (at least 16 each), if already found: the strays and the
+        noise estimate read them.
 
     Returns
     -------
@@ -246,21 +255,27 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
         normals = np.asarray(normals, dtype=np.float64)
     # Strays are neither fitted nor used in the fits: the map's own outlier test must still
     # find them where they are.
-    inliers = np.flatnonzero(~find_outliers(X))
+    outlier = find_outliers(X, knn=knn) if outlier is None else np.asarray(outlier, bool)
+    inliers = np.flatnonzero(~outlier)
     Xi, Ni = X[inliers], None if normals is None else normals[inliers]
-    est = estimate if estimate is not None else estimate_noise(Xi, config.noise_neighbours, Ni)
+    if estimate is None:
+        sub = knn.among(~outlier, X) if knn is not None else None
+        estimate = estimate_noise(Xi, config.noise_neighbours, Ni, knn=sub)
+        del sub
+        again = True  # made here: a second look with larger fits when it is applied
+    else:
+        again = False
+    est = estimate
     record.update(noise=est.relative, noise_std=est.std, spacing=est.spacing)
     if config.mode == "auto" and est.relative <= config.threshold:
         record.update(skipped="below the threshold", seconds=time.perf_counter() - t0)
         return X, record
-    if estimate is None:
+    if again:
         # Small fits tell a coarsely sampled clean surface from a noisy one; fits twice as
         # large under-read strong noise less (the level reported and the fits' width).
         est = estimate_noise(Xi, 2 * config.noise_neighbours, Ni)
         record.update(noise=est.relative, noise_std=est.std, spacing=est.spacing)
     width = max(config.width, config.width_per_noise * est.relative)
-    outlier = np.ones(len(X), dtype=bool)
-    outlier[inliers] = False
     fitted = fit_heights(X, width, est.spacing, config.neighbours, normals, exclude=outlier)
     # The input's normals are as noisy as its points (a scanner estimates them from its own
     # mesh): the fitted points' normals are the better direction.

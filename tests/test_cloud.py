@@ -180,3 +180,32 @@ def test_adaptive_pca_keeps_the_facing_sheet_of_a_fold_out():
         return np.mean(np.abs((n * sheet.normals).sum(axis=1)) < np.cos(np.radians(30)))
 
     assert off(vectors[:, :, 0]) > 0.03 and off(normals) < 0.005
+
+
+def test_shared_neighbours_are_the_queries_each_step_made_alone():
+    from scipy.spatial import cKDTree
+
+    from pcgeom.cloud import Neighbours, find_outliers
+
+    rng = np.random.default_rng(3)
+    X = np.column_stack([rng.uniform(-1, 1, (3000, 2)), np.zeros(3000)])
+    X[:, 2] = 0.2 * np.sin(2 * X[:, 0]) + 0.01 * rng.normal(size=3000)
+    X[:20, 2] += 0.5  # strays
+    knn = Neighbours.of(X, 24)
+    dist, index = cKDTree(X).query(X, 17)
+    np.testing.assert_array_equal(knn.first(16)[1], index)
+    np.testing.assert_allclose(knn.first(16)[0], dist)
+    outlier = find_outliers(X, knn=knn)
+    np.testing.assert_array_equal(outlier, find_outliers(X))
+    assert outlier[:20].all() and outlier[20:].mean() < 0.01
+    # Among the inliers: the rows that named a stray are queried again.
+    sub = knn.among(~outlier, X)
+    Xi = X[~outlier]
+    dist, index = cKDTree(Xi).query(Xi, 25)
+    np.testing.assert_array_equal(sub.index, index)
+    np.testing.assert_allclose(sub.dist, dist)
+    with pytest.raises(ValueError, match="30 neighbours asked of a query of 24"):
+        knn.first(30)
+    # A cloud smaller than the query: every other point.
+    small = Neighbours.of(X[:10], 24)
+    assert small.k == 9 and small.first(16)[1].shape == (10, 10)

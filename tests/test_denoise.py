@@ -266,5 +266,5 @@ def test_landmarks_follow_their_points_onto_the_fitted_surface():
 
     Xn = P / np.linalg.norm(P, axis=1).max()
     marks = [torch.tensor(Xn[[apex, rim]])]
-    fitted, _ = _denoise(Xn, None, config, marks)
+    fitted, _, _ = _denoise(Xn, None, config, marks)
     np.testing.assert_allclose(marks[0].numpy(), fitted[[apex, rim]])

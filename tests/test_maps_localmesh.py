@@ -291,3 +291,26 @@ def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
     # A loop enclosing no area gives no triangle (conformal_disk then says "degenerate").
     line = np.array([[0, 0], [1, 0], [2, 0.0]])
     assert _planar_mesh(line, np.array([0, 1, 2])).shape == (0, 3)
+
+
+def test_merge_keeps_what_a_sequential_greedy_pass_keeps():
+    from pcgeom.maps.localmesh import _fans, _greedy_claims, _merge
+
+    X, N, _, _ = folded_strip()
+    candidates = _fans(X, N, 24, progress=False)
+    faces, n_candidates = _merge(X, N, candidates)
+    assert n_candidates == len(np.unique(np.sort(candidates, axis=1), axis=0))
+    # The naive reference: in priority order, keep a triangle whose directed edges are free.
+    rng = np.random.default_rng(0)
+    tris = rng.integers(0, 60, (4000, 3))
+    tris = tris[(tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2])
+                & (tris[:, 0] != tris[:, 2])]
+    edges = tris * 60 + np.roll(tris, -1, axis=1)
+    taken, expected = set(), []
+    for row in edges.tolist():
+        expected.append(not taken.intersection(row))
+        if expected[-1]:
+            taken.update(row)
+    kept = _greedy_claims(edges)
+    np.testing.assert_array_equal(kept, expected)
+    assert 20 < kept.sum() < len(tris) // 2  # many conflicts: a test of the rounds

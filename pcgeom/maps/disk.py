@@ -197,12 +197,13 @@ def _balance(U: np.ndarray, rounds: int = 50) -> np.ndarray:
 
 
 def disk_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, domain: Disk, *,
-             progress: bool) -> tuple[np.ndarray, np.ndarray, dict]:
+             progress: bool, outlier: np.ndarray | None = None
+             ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The disk map of a run: :func:`conformal_disk` scaled and moved to the disk's radius and
     centre. Parameters, returns and errors as :func:`pcgeom.maps.free.free_map` (the record
     adds ``onto``, the domain's spec)."""
     t0 = time.perf_counter()
-    uv, mesh, _, record = free_start(Xn, normals, config, progress=progress)
+    uv, mesh, _, record = free_start(Xn, normals, config, progress=progress, outlier=outlier)
     uv = np.asarray(domain.center) + domain.radius * conformal_disk(Xn, mesh, uv)
     record.update(onto=domain.spec, flips=mesh_flips(Xn, mesh, uv),
                   seconds=time.perf_counter() - t0)

@@ -107,9 +107,11 @@ def conformal_factor(X: np.ndarray, U: np.ndarray, neighbours: int = 8) -> np.nd
 
 
 def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
-               progress: bool) -> tuple[np.ndarray, LocalMesh, np.ndarray, dict]:
-    """The local mesh of the cloud (:func:`pcgeom.maps.localmesh.mesh_cloud`) and its free
-    LSCM map: where every local-mesh map starts.
+               progress: bool, outlier: np.ndarray | None = None
+               ) -> tuple[np.ndarray, LocalMesh, np.ndarray, dict]:
+    """The local mesh of the cloud (:func:`pcgeom.maps.localmesh.mesh_cloud`; ``outlier``:
+    its strays, when already found) and its free LSCM map: where every local-mesh map
+    starts.
 
     Returns the map ``(N, 2)``, the mesh, the normals (estimated when ``normals`` is None)
     and the start of the history record."""
@@ -117,7 +119,8 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     mesh, normals, record = mesh_cloud(Xn, normals, settings.neighbours,
                                        settings.normal_neighbours, progress=progress,
                                        normal_scales=settings.normal_scales,
-                                       normal_tolerance=settings.normal_tolerance)
+                                       normal_tolerance=settings.normal_tolerance,
+                                       outlier=outlier)
     uv = lscm_free(Xn, mesh)
     record["solver"] = solver_name()  # the sparse factorization that ran
     return uv, mesh, normals, record
@@ -125,12 +128,13 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
 
 def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
              device: torch.device, dtype: torch.dtype, seed: int,
-             progress: bool) -> tuple[np.ndarray, np.ndarray, dict]:
+             progress: bool, outlier: np.ndarray | None = None
+             ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The free-boundary map of a run: LSCM of the local mesh, optionally refined.
 
     Parameters
     ----------
-    Xn, normals
+    Xn, normals, outlier
         As :func:`pcgeom.maps.localmesh.mesh_cloud`.
     config : ParamConfig
         Uses ``local_mesh`` and, when ``local_mesh.refine_steps > 0``, ``refine`` and
@@ -153,7 +157,8 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
     """
     t0 = time.perf_counter()
     settings = config.local_mesh
-    uv, mesh, normals, record = free_start(Xn, normals, config, progress=progress)
+    uv, mesh, normals, record = free_start(Xn, normals, config, progress=progress,
+                                           outlier=outlier)
     lam_inv = conformal_factor(Xn, uv)
     if settings.refine_steps > 0:
         gen = torch.Generator(device="cpu")

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cloud import adaptive_pca, find_outliers, local_pca, scale_ladder, surface_variation
+from ..cloud import (Neighbours, adaptive_pca, find_outliers, local_pca, scale_ladder,
+                     surface_variation)
 from ..errors import InputError
 from ..progress import Progress
 from .normals import orient_normals
@@ -106,12 +107,10 @@ def _tangent_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _fans(X: np.ndarray, normals: np.ndarray, neighbours: int, progress: bool,
-          chunk: int = 50_000) -> np.ndarray:
-    """Triangles of every point's Delaunay star among its same-sheet neighbours."""
-    from scipy.spatial import cKDTree
-
-    k = min(neighbours, len(X) - 1)
-    _, nb = cKDTree(X).query(X, k + 1)
+          chunk: int = 50_000, knn: Neighbours | None = None) -> np.ndarray:
+    """Triangles of every point's Delaunay star among its same-sheet neighbours (``knn``:
+    the points' nearest points, when already found)."""
+    nb = (knn if knn is not None else Neighbours.of(X, neighbours)).first(neighbours)[1]
     starts = range(0, len(X), chunk)
     blocks = []
     with Progress(len(starts), "local mesh", enabled=progress, unit="block") as bar:
@@ -163,20 +162,24 @@ def _stars(X: np.ndarray, normals: np.ndarray, nb: np.ndarray, idx: np.ndarray) 
     angle = np.where(alive, angle, 0.0)
     q = p / np.maximum((p ** 2).sum(axis=-1, keepdims=True), 1e-300)
     cols = np.arange(k)[None, :]
+    rows = np.arange(len(nb))  # the stars that may still lose a neighbour
     for _ in range(k):
-        prev, nxt = _circular_neighbours(alive)
+        live, qr, ar = alive[rows], q[rows], angle[rows]
+        prev, nxt = _circular_neighbours(live)
         pi, ni = prev % k, nxt % k
-        valid = alive & (prev >= 0) & (nxt < 2 * k) & (pi != ni) & (pi != cols)
-        qa = np.take_along_axis(q, pi[..., None], axis=1)
-        qb = np.take_along_axis(q, ni[..., None], axis=1)
-        wedge = np.mod(np.take_along_axis(angle, ni, axis=1)
-                       - np.take_along_axis(angle, pi, axis=1), 2 * np.pi)
-        turn = ((q[..., 0] - qa[..., 0]) * (qb[..., 1] - q[..., 1])
-                - (q[..., 1] - qa[..., 1]) * (qb[..., 0] - q[..., 0]))
+        valid = live & (prev >= 0) & (nxt < 2 * k) & (pi != ni) & (pi != cols)
+        qa = np.take_along_axis(qr, pi[..., None], axis=1)
+        qb = np.take_along_axis(qr, ni[..., None], axis=1)
+        wedge = np.mod(np.take_along_axis(ar, ni, axis=1)
+                       - np.take_along_axis(ar, pi, axis=1), 2 * np.pi)
+        turn = ((qr[..., 0] - qa[..., 0]) * (qb[..., 1] - qr[..., 1])
+                - (qr[..., 1] - qa[..., 1]) * (qb[..., 0] - qr[..., 0]))
         inside = valid & (wedge < np.pi) & (turn <= 0)
-        if not inside.any():
+        changed = inside.any(axis=1)
+        if not changed.any():
             break
-        alive &= ~inside
+        alive[rows] = live & ~inside
+        rows = rows[changed]  # a star that lost nothing this round is final
     _, nxt = _circular_neighbours(alive)
     ni = nxt % k
     gap = np.mod(np.take_along_axis(angle, ni, axis=1) - angle, 2 * np.pi)
@@ -283,7 +286,8 @@ def _submesh(X: np.ndarray, faces: np.ndarray, keep: np.ndarray
 
 
 def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
-               exclude: np.ndarray | None = None, progress: bool = False) -> LocalMesh:
+               exclude: np.ndarray | None = None, progress: bool = False,
+               knn: Neighbours | None = None) -> LocalMesh:
     """Build the manifold mesh of same-sheet tangent fans (steps 1-3 of the module).
 
     Parameters
@@ -294,8 +298,13 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
         Unit normals, consistently oriented.
     neighbours : int
         Nearest neighbours each fan is built from.
+    exclude : (N,) bool, optional
+        Points no fan uses (strays).
     progress : bool
         Progress of the fans on stderr (:mod:`pcgeom.progress`).
+    knn : Neighbours, optional
+        The nearest points of the points not excluded, among themselves (rows as in
+        ``X[~exclude]``), when already found.
 
     Returns
     -------
@@ -304,7 +313,7 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
 
     n = len(X)
     kept = np.arange(n) if exclude is None else np.flatnonzero(~np.asarray(exclude, bool))
-    candidates = kept[_fans(X[kept], normals[kept], neighbours, progress)]
+    candidates = kept[_fans(X[kept], normals[kept], neighbours, progress, knn=knn)]
     faces, n_candidates = _merge(X, normals, candidates)
     del candidates
     main = _main_part(faces, n)
@@ -319,9 +328,11 @@ def _edge_sides(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
     if not len(edges):
         return edges, np.zeros(0, dtype=bool)
-    _, inverse, counts = np.unique(np.sort(edges, axis=1), axis=0, return_inverse=True,
-                                   return_counts=True)
-    return edges, counts[inverse.ravel()] == 1
+    # An undirected edge as one integer, a * n + b with a < b: a 1D sort, not a row sort.
+    n = int(edges.max()) + 1
+    key = edges.min(axis=1).astype(np.int64) * n + edges.max(axis=1)
+    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+    return edges, counts[inverse] == 1
 
 
 def _vertex_manifold(faces: np.ndarray, rounds: int = 5) -> np.ndarray:
@@ -428,7 +439,8 @@ def _interpolate_rest(X: np.ndarray, U: np.ndarray, known: np.ndarray) -> np.nda
 def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
                normal_neighbours: int, *, progress: bool,
                normal_scales: tuple[int, ...] = (6, 8, 12, 16, 24),
-               normal_tolerance: float = 0.03) -> tuple[LocalMesh, np.ndarray, dict]:
+               normal_tolerance: float = 0.03, outlier: np.ndarray | None = None
+               ) -> tuple[LocalMesh, np.ndarray, dict]:
     """Outliers, the surface test, normals and the local mesh of a normalized cloud.
 
     Parameters
@@ -442,6 +454,8 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     normal_scales, normal_tolerance
         The neighbourhood PCA's scales (:func:`pcgeom.cloud.adaptive_pca`): the surface test
         and, without normals, their estimate.
+    outlier : (N,) bool, optional
+        The cloud's strays (:func:`pcgeom.cloud.find_outliers`), when already found.
 
     Returns
     -------
@@ -460,26 +474,33 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
         The cloud fills a volume (:data:`NOT_A_SURFACE`), less than :data:`MIN_MESHED` of it
         fits one local mesh, or it samples a closed surface (:data:`CLOSED_SURFACE`).
     """
-    outlier = find_outliers(Xn)
+    outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, bool)
     inliers = np.flatnonzero(~outlier)
+    Xi = Xn[inliers]
+    # One neighbour query of the inliers serves the PCA, the orientation and the fans.
+    scales = scale_ladder(normal_scales, len(inliers))
+    knn = Neighbours.of(Xi, max(int(scales[-1]), SURFACE_NEIGHBOURS, normal_neighbours,
+                                neighbours))
     # One neighbourhood PCA serves the surface test and, without normals, their estimate;
     # each point at the scale where its neighbours lie flattest, so that the facing sheet of
     # a fold a couple of spacings away stays out.
-    variation, estimated, scale, per_scale = adaptive_pca(Xn[inliers], normal_scales,
-                                                          normal_tolerance)
-    scales = scale_ladder(normal_scales, len(inliers))
+    variation, estimated, scale, per_scale = adaptive_pca(Xi, normal_scales, normal_tolerance,
+                                                          knn=knn)
     if SURFACE_NEIGHBOURS in scales:
         at_16 = per_scale[:, np.flatnonzero(scales == SURFACE_NEIGHBOURS)[0]]
     else:
-        at_16 = surface_variation(local_pca(Xn[inliers], SURFACE_NEIGHBOURS)[0])
+        at_16 = surface_variation(local_pca(Xi, SURFACE_NEIGHBOURS, knn=knn)[0])
+    del per_scale
     if np.median(at_16) > MAX_VARIATION and np.median(variation) > FLAT_VARIATION:
         raise InputError(NOT_A_SURFACE)
     source = "input"
     if normals is None:
         source = "estimated"
         normals = np.zeros_like(Xn)
-        normals[inliers] = orient_normals(Xn[inliers], estimated, normal_neighbours)
-    mesh = local_mesh(Xn, normals, neighbours, exclude=outlier, progress=progress)
+        normals[inliers] = orient_normals(Xi, estimated, normal_neighbours, knn=knn)
+    del estimated, Xi
+    mesh = local_mesh(Xn, normals, neighbours, exclude=outlier, progress=progress, knn=knn)
+    del knn
     meshed = float(mesh.main.mean())
     if meshed < MIN_MESHED:
         raise InputError(f"only {100 * meshed:.0f}% of the points fit one local mesh: "

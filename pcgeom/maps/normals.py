@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cloud import local_pca
+from ..cloud import Neighbours, local_pca
 
 __all__ = ["estimate_normals", "orient_normals"]
 
@@ -51,7 +51,8 @@ def estimate_normals(X: np.ndarray, neighbours: int = 16) -> np.ndarray:
     return np.ascontiguousarray(vectors[:, :, 0])
 
 
-def orient_normals(X: np.ndarray, normals: np.ndarray, neighbours: int = 16) -> np.ndarray:
+def orient_normals(X: np.ndarray, normals: np.ndarray, neighbours: int = 16, *,
+                   knn: Neighbours | None = None) -> np.ndarray:
     """Flip normals to one consistent side by propagation over a minimum spanning tree.
 
     The largest connected part of the neighbour graph is oriented from its point of largest z,
@@ -66,6 +67,8 @@ def orient_normals(X: np.ndarray, normals: np.ndarray, neighbours: int = 16) -> 
         Unit normals of any sign.
     neighbours : int
         Neighbours per point in the graph.
+    knn : Neighbours, optional
+        The points' nearest points, when already found (at least ``neighbours`` each).
 
     Returns
     -------
@@ -79,8 +82,8 @@ def orient_normals(X: np.ndarray, normals: np.ndarray, neighbours: int = 16) -> 
 
     n = len(X)
     N = np.array(normals, dtype=np.float64)
-    k = min(neighbours, n - 1)
-    _, nb = cKDTree(X).query(X, k + 1)
+    nb = (knn if knn is not None else Neighbours.of(X, neighbours)).first(neighbours)[1]
+    k = nb.shape[1] - 1
     i = np.repeat(np.arange(n), k)
     j = nb[:, 1:].reshape(-1)
     e = X[j] - X[i]

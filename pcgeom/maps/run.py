@@ -25,7 +25,8 @@ import numpy as np
 import torch
 
 from .._version import __version__
-from ..cloud import deduplicate, fingerprint, normalize, validate_normals, validate_points
+from ..cloud import (Neighbours, deduplicate, find_outliers, fingerprint, normalize,
+                     validate_normals, validate_points)
 from ..config import ParamConfig, get_preset
 from ..denoise import denoise_points
 from ..domains import Disk, Domain, get_domain
@@ -180,7 +181,7 @@ def parametrize(
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
     kind = choose_map(domain, config, bool(landmarks))
     log(f"{len(P)} points onto {domain.label}: the {kind} map", enabled=progress)
-    Xn, denoised = _denoise(Xn, normals, config, lm_points)
+    Xn, denoised, outlier = _denoise(Xn, normals, config, lm_points)
     # The record in input units; it is the run's first stage when it moved the points.
     denoised.update({k: denoised[k] * scale for k in ("noise_std", "spacing")
                      if denoised[k] is not None})
@@ -209,17 +210,19 @@ def parametrize(
 
     if kind == "free":
         uv, lam_inv, record = free_map(Xn, normals, config, device=dev, dtype=dtype, seed=seed,
-                                       progress=progress)
+                                       progress=progress, outlier=outlier)
         report(record, uv)
         return result(uv, lam_inv, [record])
     if kind == "disk":
-        uv, lam_inv, record = disk_map(Xn, normals, config, domain, progress=progress)
+        uv, lam_inv, record = disk_map(Xn, normals, config, domain, progress=progress,
+                                       outlier=outlier)
         report(record, uv)
         return result(uv, lam_inv, [record])
     start, decided = None, {}
+    if kind == "domain":
+        start = free_start(Xn, normals, config, progress=progress, outlier=outlier)
     if kind == "domain" and getattr(domain, "auto", False):
         # The domain depends on the surface: the local mesh first, then the domain's sample.
-        start = free_start(Xn, normals, config, progress=progress)
         domain, decided = resolve_domain(domain, Xn, start)
         start[3].update(decided)
         log(f"{domain.label} (its inner radius from the surface)", enabled=progress)
@@ -286,8 +289,15 @@ def parametrize(
 def _denoise(Xn: np.ndarray, normals, config: ParamConfig, lm_points: list) -> tuple:
     """:func:`pcgeom.denoise.denoise_points` of the normalized cloud; landmark points (in
     place) move with their nearest cloud point, so that each still acts through the point it
-    named."""
-    fitted, record = denoise_points(Xn, config.denoise, normals)
+    named. Returns the points, the record and, when the points did not move, their strays
+    (:func:`pcgeom.cloud.find_outliers`, for the local mesh), else None."""
+    if config.denoise.mode == "off":
+        return Xn, denoise_points(Xn, config.denoise, normals)[1], None
+    # One neighbour query for the strays and the noise estimate.
+    knn = Neighbours.of(Xn, max(16, config.denoise.noise_neighbours - 1))
+    outlier = find_outliers(Xn, knn=knn)
+    fitted, record = denoise_points(Xn, config.denoise, normals, outlier=outlier, knn=knn)
+    del knn
     if record["applied"] and lm_points:
         from scipy.spatial import cKDTree
 
@@ -295,7 +305,7 @@ def _denoise(Xn: np.ndarray, normals, config: ParamConfig, lm_points: list) -> t
         for k, p in enumerate(lm_points):
             nearest = tree.query(p.cpu().double().numpy())[1]
             lm_points[k] = p + torch.as_tensor(shift[nearest], device=p.device, dtype=p.dtype)
-    return fitted, record
+    return fitted, record, None if record["applied"] else outlier
 
 
 def _warn_flips(flips: dict | None) -> None:
