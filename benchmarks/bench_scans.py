@@ -6,8 +6,10 @@ writes them) and bare; with Gaussian noise of :data:`NOISE_EDGES` mean edge leng
 against the noisy points on the true connectivity, beside libigl's LSCM on that noisy mesh);
 with depth noise of :data:`DEPTH_NOISE` mean edge lengths along the normals, bare, mapped
 with ``--denoise off`` and ``auto`` and judged on the clean mesh, the clean clouds the same
-way, and ``pcgeom reconstruct`` of a noisy face against the clean mesh; and three bumps over a square of N random points, for time and peak memory against N (drawn
-to ``benchmarks/figures/<stem>_time_vs_n.png``, or next to an ``--out`` elsewhere). Replaces
+way, and ``pcgeom reconstruct`` of a noisy face against the clean mesh; and five bumps over a
+square of N points (uniform random and a jittered grid), for time and peak memory against N,
+free and onto the disk, optionally beside an earlier version (``--baseline``), drawn to
+``benchmarks/figures/<stem>_time_vs_n.png`` (or next to an ``--out`` elsewhere). Replaces
 the section ``--section`` (default ``bench_scans``) of BENCHMARKS.md.
 """
 
@@ -224,23 +226,127 @@ def denoise_verdicts(rows) -> list[str]:
     return lines
 
 
-def heightfield(n: int, seed: int = 0) -> np.ndarray:
-    xy = np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 2))
-    bumps = [(0.5, -0.4, -0.3), (0.7, 0.3, 0.4), (0.4, 0.5, -0.5)]
+BUMPS = [(0.5, -0.4, -0.3), (0.7, 0.3, 0.4), (0.4, 0.5, -0.5), (-0.3, -0.5, 0.5),
+         (0.35, 0.0, 0.0)]
+"""The scale rows' height field: (height, x, y) of five Gaussian bumps of width 0.22."""
+
+SAMPLINGS = ("uniform", "grid")
+"""Uniform random points, and a grid jittered by a tenth of its step (a range scan's rows)."""
+
+SCALE_TARGETS = {"time_1m": 180.0, "rss_1m": 3.0, "time_300k": 30.0, "slope": 1.1,
+                 "disk_time_1m": 240.0, "disk_rss_1m": 3.0}
+"""Issue 26's targets (2 cores, ``fast``): seconds and GB at 1M points, seconds at 300k, the
+slope of log time against log N from 100k to 1M, and the disk at 1M."""
+
+
+def heightfield(n: int, sampling: str = "uniform", seed: int = 0) -> np.ndarray:
+    """``n`` points (about, for the grid) of the five-bump height field over [-1, 1]^2."""
+    rng = np.random.default_rng(seed)
+    if sampling == "grid":
+        side = int(round(np.sqrt(n)))
+        g = np.linspace(-1.0, 1.0, side)
+        xy = np.stack(np.meshgrid(g, g), axis=-1).reshape(-1, 2)
+        xy = xy + rng.uniform(-0.1, 0.1, xy.shape) * (g[1] - g[0])
+    else:
+        xy = rng.uniform(-1.0, 1.0, (n, 2))
     z = sum(a * np.exp(-((xy[:, 0] - cx) ** 2 + (xy[:, 1] - cy) ** 2) / 0.1)
-            for a, cx, cy in bumps)
+            for a, cx, cy in BUMPS)
     return np.column_stack([xy, z])
 
 
-def scale_rows(sizes, work: Path) -> list[dict]:
+def _scored(path, X) -> dict:
+    """Angle distortion and flips of a map file on the height field's true triangles (the
+    Delaunay triangulation of its (x, y))."""
+    from scipy.spatial import Delaunay
+
+    from pcgeom.io import ParamResult
+    from pcgeom.metrics import angle_distortion
+
+    result = ParamResult.load(path, n_points=len(X))
+    rep = angle_distortion(X, Delaunay(X[:, :2]).simplices, result.uv)
+    record = next((r for r in result.history if "solver" in r), {})
+    return {"rad": rep.mean_abs, "flipped": rep.flipped, "n_faces": rep.n_faces,
+            "solver": record.get("solver") or "-", "ordering": record.get("ordering") or "-"}
+
+
+def scale_rows(sizes, work: Path, samplings=SAMPLINGS, domain: str = "free",
+               tree: Path | None = None, version: str = "this") -> list[dict]:
+    """``pcgeom param`` (``fast``) of each sampling and size: wall and CLI seconds, peak
+    RSS, angles and flips on the true triangles. ``tree``: a pcgeom source tree to run
+    instead of this one (``version`` names it in the rows)."""
+    import os
+
     rows = []
-    for n in sizes:
-        src = work / f"heightfield_{n}.xyz"
-        np.savetxt(src, heightfield(n), fmt="%.9f")
-        run = H.pcgeom_cli(*H.param_args(src, work / f"heightfield_{n}_uv.npz"))
-        rows.append({"points": n, "train_s": run["json"]["seconds"], **run})
-        H.log(f"height field, {n} points: {run['wall_s']:.1f} s, {run['rss_gb']:.2f} GB")
+    for sampling in samplings:
+        for n in sizes:
+            src = work / f"heightfield_{sampling}_{n}.xyz"
+            X = heightfield(n, sampling)
+            if not src.exists():
+                np.savetxt(src, X, fmt="%.9f")
+            out = work / f"heightfield_{sampling}_{n}_{domain}_{version}_uv.npz"
+            saved = os.environ["PYTHONPATH"]
+            if tree is not None:
+                os.environ["PYTHONPATH"] = os.fspath(tree)
+            try:
+                run = H.pcgeom_cli(*H.param_args(src, out, domain=domain), check=False)
+            finally:
+                os.environ["PYTHONPATH"] = saved
+            row = {"sampling": sampling, "points": len(X), "domain": domain,
+                   "version": version, **run}
+            if run["error"]:
+                row.update(train_s=float("nan"), rad=float("nan"), flipped=-1,
+                           solver="-", ordering="-")
+            else:
+                row.update(train_s=run["json"]["seconds"], **_scored(out, X))
+            out.unlink(missing_ok=True)
+            rows.append(row)
+            H.log(f"{sampling} {n} {domain} ({version}): {row['wall_s']:.1f} s, "
+                  f"{row['rss_gb']:.2f} GB, {row['rad']:.4f} rad, {row['flipped']} flipped"
+                  + (f" [{run['error']}]" if run["error"] else ""))
     return rows
+
+
+def slope(rows, sampling: str, domain: str = "free", lo: int = 100_000,
+          hi: int = 1_000_000) -> float | None:
+    """The slope of log wall time against log N between the rows nearest ``lo`` and ``hi``
+    points (None without both)."""
+    mine = [r for r in rows if r["sampling"] == sampling and r["domain"] == domain
+            and r["version"] == "this" and not r["error"]]
+    if len(mine) < 2:
+        return None
+    a = min(mine, key=lambda r: abs(np.log(r["points"] / lo)))
+    b = min(mine, key=lambda r: abs(np.log(r["points"] / hi)))
+    if a is b:
+        return None
+    return float(np.log(b["wall_s"] / a["wall_s"]) / np.log(b["points"] / a["points"]))
+
+
+def scale_verdicts(rows) -> list[str]:
+    """Issue 26's targets against the rows of this version."""
+    def near(sampling, n, domain="free"):
+        found = [r for r in rows if r["sampling"] == sampling and r["domain"] == domain
+                 and r["version"] == "this" and abs(np.log(r["points"] / n)) < 0.05]
+        return found[0] if found else None
+
+    T, lines = SCALE_TARGETS, []
+    for sampling in SAMPLINGS:
+        for n, domain, secs, gb in ((1_000_000, "free", T["time_1m"], T["rss_1m"]),
+                                    (300_000, "free", T["time_300k"], None),
+                                    (1_000_000, "disk", T["disk_time_1m"], T["disk_rss_1m"])):
+            r = near(sampling, n, domain)
+            if r is None:
+                continue
+            ok = not r["error"] and r["wall_s"] <= secs and (gb is None or r["rss_gb"] <= gb)
+            lines.append(f"- {sampling}, {r['points']} points, {domain}: {r['wall_s']:.1f} s, "
+                         f"{r['rss_gb']:.2f} GB; want <= {secs:.0f} s"
+                         + (f", <= {gb} GB" if gb else "")
+                         + f": **{'PASS' if ok else 'MISS'}**")
+        k = slope(rows, sampling)
+        if k is not None:
+            lines.append(f"- {sampling}, slope of log time against log N from 100k to 1M: "
+                         f"{k:.2f}; want <= {T['slope']}: "
+                         f"**{'PASS' if k <= T['slope'] else 'MISS'}**")
+    return lines
 
 
 def plot_scale(rows, path: Path) -> None:
@@ -249,13 +355,27 @@ def plot_scale(rows, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    styles = {("free", "this"): "o-", ("disk", "this"): "s--", ("free", "before"): "x:"}
+    for (domain, version), style in styles.items():
+        for sampling, colour in zip(SAMPLINGS, ("tab:blue", "tab:orange")):
+            mine = sorted((r for r in rows if (r["domain"], r["version"], r["sampling"])
+                           == (domain, version, sampling) and not r["error"]),
+                          key=lambda r: r["points"])
+            if len(mine) < 2:
+                continue
+            k = slope(rows, sampling, domain) if version == "this" else None
+            label = f"{sampling}, {domain}" + ("" if version == "this" else f" ({version})")
+            ax.loglog([r["points"] for r in mine], [r["wall_s"] for r in mine], style,
+                      color=colour, label=label + (f", slope {k:.2f}" if k else ""))
     n = np.array([r["points"] for r in rows], dtype=float)
-    fig, ax = plt.subplots(figsize=(5, 3.5), dpi=100)
-    ax.loglog(n, [r["wall_s"] for r in rows], "o-", label="pcgeom param (fast), wall")
-    ax.loglog(n, n * rows[-1]["wall_s"] / n[-1], "k:", label="linear in N")
+    if len(n):
+        top = max(r["wall_s"] for r in rows if r["points"] == n.max())
+        grid = np.array([n.min(), n.max()])
+        ax.loglog(grid, grid * top / n.max(), "k:", lw=0.8, label="linear in N")
     ax.set_xlabel("points")
-    ax.set_ylabel("seconds (2 CPU cores)")
-    ax.legend()
+    ax.set_ylabel("wall seconds, whole CLI (2 CPU cores)")
+    ax.legend(fontsize=7)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -378,11 +498,32 @@ def render(quality, disk, noise, scale, argv, plot: str | None, depth=(), clean=
                 "only because it is solved on that very mesh.", ""]
     out += render_denoise(depth, clean, recon)
     if scale:
-        out += ["Time and peak memory against N (three-bump height field, uniform random "
-                "points, no normals, `fast`):", "",
-                *H.table([("points", "{points}"), ("wall s", "{wall_s:.1f}"),
-                          ("pcgeom s", "{train_s:.1f}"), ("peak RSS, GB", "{rss_gb:.2f}")],
-                         scale)]
+        this = [r for r in scale if r["version"] == "this"]
+        before = [r for r in scale if r["version"] != "this"]
+        out += ["Time and peak memory against N: the five-bump height field over [-1, 1]^2, "
+                "uniform random points and a grid jittered by a tenth of its step, no "
+                "normals, `fast`, the whole CLI (start-up, reading and writing included); "
+                "angles and flips on the true triangles (the Delaunay triangulation of "
+                "(x, y)); `solver` and `ordering` as the run's history records them.", "",
+                *H.table([("sampling", "{sampling}"), ("domain", "{domain}"),
+                          ("points", "{points}"), ("wall s", "{wall_s:.1f}"),
+                          ("pcgeom s", "{train_s:.1f}"), ("peak RSS, GB", "{rss_gb:.2f}"),
+                          ("mean abs angle, rad", "{rad:.4f}"), ("flipped", "{flipped}"),
+                          ("solver", "{solver} ({ordering})")], this),
+                "", *scale_verdicts(scale)]
+        if before:
+            out += ["", "The same runs, side by side in this run, of the version named "
+                    "`before` (`--baseline`):", "",
+                    *H.table([("sampling", "{sampling}"), ("domain", "{domain}"),
+                              ("points", "{points}"), ("version", "{version}"),
+                              ("wall s", "{wall_s:.1f}"), ("peak RSS, GB", "{rss_gb:.2f}"),
+                              ("mean abs angle, rad", "{rad:.4f}"),
+                              ("flipped", "{flipped}"), ("solver", "{solver}")],
+                             sorted(before + [r for r in this if any(
+                                 (b["sampling"], b["points"], b["domain"])
+                                 == (r["sampling"], r["points"], r["domain"])
+                                 for b in before)],
+                                 key=lambda r: (r["sampling"], r["points"], r["version"])))]
         if plot is not None:
             out += ["", f"![time against N]({plot})"]
     return "\n".join(out)
@@ -411,6 +552,13 @@ def main(argv=None) -> int:
                    help="surfaces reconstructed from depth noise 0.5, --denoise off and auto")
     p.add_argument("--sizes", nargs="*", type=int,
                    default=[5_000, 20_000, 50_000, 100_000, 300_000, 1_000_000])
+    p.add_argument("--samplings", nargs="*", default=list(SAMPLINGS), choices=SAMPLINGS)
+    p.add_argument("--disk-sizes", nargs="*", type=int, default=[1_000_000],
+                   help="sizes also mapped onto the disk")
+    p.add_argument("--baseline", type=Path,
+                   help="a pcgeom source tree (e.g. a git worktree of an earlier commit) run "
+                        "side by side at --baseline-sizes")
+    p.add_argument("--baseline-sizes", nargs="*", type=int, default=[100_000, 300_000])
     p.add_argument("--section", default="bench_scans",
                    help="the marked section of --out to replace (bench_scans_large for a run "
                         "of the largest sizes alone: --surfaces --noise --disk --sizes 1000000 "
@@ -429,7 +577,12 @@ def main(argv=None) -> int:
         clean = clean_denoise_rows([s for s in args.clean_denoise if H.available(s)], work)
         recon = reconstruct_rows([s for s in args.reconstruct_noise if H.data_file(s).is_file()],
                                  work)
-        scale = scale_rows(args.sizes, work) if args.sizes else []
+        scale = scale_rows(args.sizes, work, args.samplings) if args.sizes else []
+        if args.disk_sizes:
+            scale += scale_rows(args.disk_sizes, work, args.samplings, domain="disk")
+        if args.baseline is not None and args.baseline_sizes:
+            scale += scale_rows(args.baseline_sizes, work, args.samplings,
+                                tree=args.baseline.resolve(), version="before")
     plot = None
     if len(scale) > 1:  # the repository's figures for its BENCHMARKS.md, else next to --out
         home = args.out.resolve().parent

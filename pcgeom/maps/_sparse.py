@@ -20,7 +20,7 @@ import warnings
 
 import numpy as np
 
-__all__ = ["spd_factor", "solver_name", "SOLVERS"]
+__all__ = ["spd_factor", "solver_name", "ordering_name", "fill_order", "SOLVERS", "METIS_UNKNOWNS"]
 
 SOLVERS = ("cholmod", "cholespy", "superlu")
 """The factorizations :func:`spd_factor` can use, preferred first."""
@@ -28,7 +28,14 @@ SOLVERS = ("cholmod", "cholespy", "superlu")
 _MODULES = {"cholmod": "cvxopt", "cholespy": "cholespy"}
 """The package each optional factorization comes from."""
 
-_state = {"noticed": False, "last": None}
+METIS_UNKNOWNS = 1_000_000
+"""Systems with at least this many unknowns are ordered by METIS (:func:`fill_order`) when
+pymetis is installed. Measured on the LSCM system of a 1M-point jittered-grid height field
+(2M unknowns), against CHOLMOD's own AMD: the factor 1.4 GB instead of 2.2, ordering,
+analysis and factorization 13.6 s instead of 14.9; at 300k points (600k unknowns) 2.5 s
+instead of 1.9, where the factor's 0.1 GB matter less."""
+
+_state = {"noticed": False, "last": None, "ordering": None}
 
 
 def _load(solver: str):
@@ -62,16 +69,73 @@ def solver_name() -> str | None:
     return _state["last"]
 
 
-def _cholmod(cvxopt, A):
-    """CHOLMOD's factor of ``A`` (its lower triangle) by cvxopt, or None when it is not
-    positive definite."""
+def ordering_name() -> str | None:
+    """The fill-reducing order of the last :func:`spd_factor`'s CHOLMOD: ``"metis"`` (given
+    by :func:`fill_order`) or ``"amd"`` (its own); None for the other solvers, which order
+    the matrix themselves."""
+    return _state["ordering"]
+
+
+def fill_order(graph, unknowns: np.ndarray) -> np.ndarray | None:
+    """A fill-reducing order of a system's unknowns: METIS's nested dissection of the graph
+    of its vertices, each vertex's unknowns kept together.
+
+    Parameters
+    ----------
+    graph : (V, V) sparse
+        The vertices' adjacency (its pattern is read; the diagonal is ignored).
+    unknowns : (V, b) int
+        The unknowns of each vertex (``-1``: none, as for a pinned value), numbered ``0 ..
+        n - 1`` over all vertices.
+
+    Returns
+    -------
+    (n,) int64 or None
+        The unknowns in elimination order; None when the system has fewer than
+        :data:`METIS_UNKNOWNS` unknowns or pymetis is not installed (CHOLMOD's AMD then
+        orders it).
+    """
+    import scipy.sparse as sp
+
+    unknowns = np.asarray(unknowns, dtype=np.int64).reshape(len(unknowns), -1)
+    if (unknowns >= 0).sum() < METIS_UNKNOWNS:
+        return None
+    try:
+        import pymetis
+    except ImportError:
+        return None
+    G = sp.csr_matrix(graph, copy=True)
+    G.setdiag(0)
+    G.eliminate_zeros()
+    G = (G + G.T).tocsr()  # METIS wants both directions of each edge
+    G.sort_indices()
+    options = pymetis.Options()
+    options.niter = 1  # the same fill as its default 10 on meshes, 10% faster
+    perm = np.asarray(pymetis.nested_dissection(
+        pymetis.CSRAdjacency(G.indptr.astype(np.int32), G.indices.astype(np.int32)),
+        options=options)[0], dtype=np.int64)
+    order = unknowns[perm].ravel()
+    return order[order >= 0]
+
+
+def _cholmod(cvxopt, A, order=None):
+    """CHOLMOD's factor of ``A`` (its lower triangle) by cvxopt, in the elimination order
+    ``order`` (else its own AMD), or None when it is not positive definite."""
     import scipy.sparse as sp
 
     lower = sp.tril(A, format="csc")
     cols = np.repeat(np.arange(lower.shape[1], dtype=np.int64), np.diff(lower.indptr))
     M = cvxopt.spmatrix(cvxopt.matrix(lower.data), cvxopt.matrix(lower.indices.astype(np.int64)),
                         cvxopt.matrix(cols), lower.shape)
-    factor = cvxopt.cholmod.symbolic(M)
+    del lower, cols
+    options = cvxopt.cholmod.options
+    options.clear()
+    if order is not None:
+        options["nmethods"] = 1  # the order given, not also AMD's to compare (1.4 s at 1M)
+        factor = cvxopt.cholmod.symbolic(M, p=cvxopt.matrix(np.asarray(order, np.int64)))
+        options.clear()
+    else:
+        factor = cvxopt.cholmod.symbolic(M)
     try:
         cvxopt.cholmod.numeric(M, factor)
     except ArithmeticError:  # not positive definite
@@ -104,9 +168,12 @@ def _cholespy(cholespy, A):
     return solve
 
 
-def spd_factor(A, *, solver: str = "auto"):
+def spd_factor(A, *, solver: str = "auto", order: np.ndarray | None = None):
     """Factor the symmetric positive definite sparse ``A`` once; returns ``solve(b)`` for
     ``b`` of shape (n,) or (n, k).
+
+    ``order``: a fill-reducing permutation of the unknowns (:func:`fill_order`), used by
+    CHOLMOD (the others order the matrix themselves).
 
     ``solver``: ``"auto"`` (the first of :data:`SOLVERS` that loads, SuperLU's LU when the
     matrix is not positive definite to its pivots), or one of :data:`SOLVERS` (a
@@ -133,7 +200,7 @@ def spd_factor(A, *, solver: str = "auto"):
                 raise ValueError(f"solver {name!r}: {_MODULES[name]} is not installed")
             missing.append(name)
             continue
-        solve = (_cholmod if name == "cholmod" else _cholespy)(module, A)
+        solve = (_cholmod(module, A, order) if name == "cholmod" else _cholespy(module, A))
         if solve is None:
             if solver == name:
                 raise ValueError(f"solver {name!r}: the matrix is not positive definite")
@@ -141,11 +208,15 @@ def spd_factor(A, *, solver: str = "auto"):
         if missing:
             _notice(missing, name)
         _state["last"] = name
+        _state["ordering"] = None
+        if name == "cholmod":
+            _state["ordering"] = "metis" if order is not None else "amd"
         return solve
     if missing and len(missing) == len(tried):
         _notice(missing, "scipy's SuperLU")
     from scipy.sparse.linalg import splu
 
     _state["last"] = "superlu"
+    _state["ordering"] = None
     return splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                 options={"SymmetricMode": True}).solve

@@ -12,7 +12,7 @@ from ..domains import Disk
 from ..errors import InputError
 from ._sparse import spd_factor
 from .free import conformal_factor, free_start
-from .localmesh import (LocalMesh, _boundary_loops, _edge_sides, _interpolate_rest, _main_part,
+from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part,
                         _signed_area, _submesh, _vertex_manifold, mesh_flips)
 
 __all__ = ["conformal_disk", "disk_map", "RIM_ANGLE"]
@@ -74,22 +74,34 @@ def _peel_rim(P: np.ndarray, T: np.ndarray, rounds: int = 20) -> np.ndarray:
     100 to 140 degrees.
     """
     limit = np.cos(RIM_ANGLE)
+    m = len(T)
+    edges = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])  # (3M, 2)
+    opposite = np.concatenate([T[:, 2], T[:, 0], T[:, 1]])  # (3M,)
+    face = np.arange(len(edges)) % max(m, 1)
+    # Each edge's undirected id and how many kept triangles have it, updated as they go.
+    n = int(T.max(initial=-1)) + 1
+    _, eid = np.unique(np.minimum(edges[:, 0], edges[:, 1]).astype(np.int64) * n
+                       + np.maximum(edges[:, 0], edges[:, 1]), return_inverse=True)
+    uses = np.bincount(eid)
+    kept = np.ones(m, dtype=bool)
     for _ in range(rounds):
-        edges, boundary = _edge_sides(T)  # (3M, 2), (3M,)
-        opposite = np.concatenate([T[:, 2], T[:, 0], T[:, 1]])  # (3M,)
+        rim = np.flatnonzero((uses[eid] == 1) & kept[face])  # boundary edges
         on_rim = np.zeros(len(P), dtype=bool)
-        on_rim[edges[boundary].ravel()] = True
-        u, v = P[edges[:, 0]] - P[opposite], P[edges[:, 1]] - P[opposite]
+        on_rim[edges[rim].ravel()] = True
+        u = P[edges[rim, 0]] - P[opposite[rim]]
+        v = P[edges[rim, 1]] - P[opposite[rim]]
         cos = (u * v).sum(axis=1) / np.maximum(
             np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
-        face = np.arange(len(edges)) % len(T)
-        one_edge = np.bincount(face[boundary], minlength=len(T)) == 1  # (M,)
-        drop = np.unique(face[boundary & (cos < limit) & ~on_rim[opposite]])
+        faces, count = np.unique(face[rim], return_counts=True)
+        one_edge = np.zeros(m, dtype=bool)
+        one_edge[faces[count == 1]] = True
+        drop = np.unique(face[rim][(cos < limit) & ~on_rim[opposite[rim]]])
         drop = drop[one_edge[drop]]
         if not len(drop):
             break
-        T = np.delete(T, drop, axis=0)
-    return T
+        kept[drop] = False
+        np.subtract.at(uses, eid[np.concatenate([drop, drop + m, drop + 2 * m])], 1)
+    return T[kept]
 
 
 def _harmonic_measure_disk(V: np.ndarray, F: np.ndarray, outer: np.ndarray,

@@ -30,7 +30,7 @@ from ..config import ParamConfig
 from ..errors import InputError
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
-from ._sparse import solver_name, spd_factor
+from ._sparse import fill_order, ordering_name, solver_name, spd_factor
 from .localmesh import LocalMesh, _interpolate_rest, _submesh, mesh_cloud, mesh_flips
 from .refine import refine
 
@@ -61,11 +61,16 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     values = np.array([0.0, 1.0, 0.0, 0.0])
     free = np.setdiff1d(np.arange(2 * m), fixed)
     rows = Q[free]
-    del Q, L  # the sparse LU below is the peak of memory at a million points
+    del Q  # the factorization below is the peak of memory at a million points
     rhs = -(rows[:, fixed] @ values)
     Q_ff = rows[:, free].tocsc()
     del rows
-    z = spd_factor(Q_ff)(rhs)
+    # Each vertex's two unknowns (u, v) ordered together, the pinned ones left out.
+    unknown = np.full(2 * m, -1)
+    unknown[free] = np.arange(len(free))
+    order = fill_order(L, unknown.reshape(2, m).T)
+    del L, V, F, unknown
+    z = spd_factor(Q_ff, order=order)(rhs)
     if not np.isfinite(z).all():
         raise InputError("the local mesh of the cloud is degenerate (LSCM has no unique "
                          "solution); try more neighbours or the 'networks' preset")
@@ -122,7 +127,8 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
                                        normal_tolerance=settings.normal_tolerance,
                                        outlier=outlier)
     uv = lscm_free(Xn, mesh)
-    record["solver"] = solver_name()  # the sparse factorization that ran
+    record["solver"] = solver_name()  # the sparse factorization that ran, and its ordering
+    record["ordering"] = ordering_name()
     return uv, mesh, normals, record
 
 
@@ -147,6 +153,7 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
     record : dict
         The history record (:func:`pcgeom.maps.localmesh.mesh_cloud`'s, plus ``seconds``,
         ``solver`` (the sparse factorization that ran, :data:`pcgeom.maps._sparse.SOLVERS`),
+        ``ordering`` (its fill-reducing order: ``"metis"``, ``"amd"`` or None),
         ``flips`` (:func:`pcgeom.maps.localmesh.mesh_flips`) and, when refined,
         ``refine_steps`` and the loss terms).
 

@@ -345,27 +345,41 @@ def _vertex_manifold(faces: np.ndarray, rounds: int = 5) -> np.ndarray:
     """
     for _ in range(rounds):
         directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-        present = set(map(tuple, directed.tolist()))
-        outgoing = np.zeros(faces.max(initial=-1) + 1, dtype=np.int64)
-        for a, b in directed.tolist():
-            if (b, a) not in present:
-                outgoing[a] += 1
-        bad = set(np.flatnonzero(outgoing > 1).tolist())
-        if not bad:
+        outgoing = np.bincount(directed[_unpaired(directed), 0],
+                               minlength=faces.max(initial=-1) + 1)
+        bad = np.flatnonzero(outgoing > 1)
+        if not len(bad):
             break
-        incident: dict[int, list[int]] = {}
-        for t, tri in enumerate(faces.tolist()):
-            for v in tri:
-                if v in bad:
-                    incident.setdefault(v, []).append(t)
+        # The triangles at each bad vertex, in triangle order.
+        rows, cols = np.nonzero(np.isin(faces, bad))
+        at = faces[rows, cols]
+        order = np.argsort(at, kind="stable")
+        rows, at = rows[order], at[order]
+        starts = np.searchsorted(at, bad)
+        ends = np.searchsorted(at, bad, side="right")
         drop: set[int] = set()
-        for v in sorted(bad):
-            tris = [t for t in incident[v] if t not in drop]
+        for v, a, b in zip(bad.tolist(), starts.tolist(), ends.tolist()):
+            tris = [t for t in rows[a:b].tolist() if t not in drop]
             if not tris:
                 continue
             drop.update(_smaller_fans(faces, v, tris))
         faces = np.delete(faces, sorted(drop), axis=0)
     return faces
+
+
+def _unpaired(directed: np.ndarray) -> np.ndarray:
+    """(E,) bool: the directed edges ``(a, b)`` whose reverse ``(b, a)`` is not among them
+    (boundary edges of a consistently oriented mesh)."""
+    if not len(directed):
+        return np.zeros(0, dtype=bool)
+    n = int(directed.max()) + 1
+    a, b = directed[:, 0].astype(np.int64), directed[:, 1].astype(np.int64)
+    forward = a < b
+    # Grouped by undirected edge: unpaired when its group has no edge the other way.
+    _, group = np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_inverse=True)
+    ahead = np.bincount(group, weights=forward)
+    back = np.bincount(group, weights=~forward)
+    return np.where(forward, back[group], ahead[group]) == 0
 
 
 def _smaller_fans(faces: np.ndarray, v: int, tris: list[int]) -> list[int]:
@@ -397,9 +411,9 @@ def _smaller_fans(faces: np.ndarray, v: int, tris: list[int]) -> list[int]:
 
 def _boundary_loops(faces: np.ndarray) -> list[list[int]]:
     """Boundary loops of a vertex-manifold, consistently oriented mesh, as vertex lists."""
-    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]).tolist()
-    present = set(map(tuple, directed))
-    following = {a: b for a, b in directed if (b, a) not in present}
+    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    rim = directed[_unpaired(directed)]
+    following = dict(zip(rim[:, 0].tolist(), rim[:, 1].tolist()))  # the last edge from a
     loops, seen = [], set()
     for start in following:
         if start in seen:

@@ -31,6 +31,9 @@ from ..cloud import Neighbours, local_pca
 
 __all__ = ["estimate_normals", "orient_normals"]
 
+_CHUNK = 100_000
+"""Points per block of the orientation graph's costs."""
+
 
 def estimate_normals(X: np.ndarray, neighbours: int = 16) -> np.ndarray:
     """Unoriented PCA normals: the least-variance direction of each point's neighbourhood.
@@ -84,15 +87,21 @@ def orient_normals(X: np.ndarray, normals: np.ndarray, neighbours: int = 16, *,
     N = np.array(normals, dtype=np.float64)
     nb = (knn if knn is not None else Neighbours.of(X, neighbours)).first(neighbours)[1]
     k = nb.shape[1] - 1
-    i = np.repeat(np.arange(n), k)
-    j = nb[:, 1:].reshape(-1)
-    e = X[j] - X[i]
-    e /= np.linalg.norm(e, axis=1, keepdims=True)
-    cost = (1.0 - np.abs(np.einsum("pd,pd->p", N[i], N[j]))
-            + np.abs(np.einsum("pd,pd->p", N[i], e)) + np.abs(np.einsum("pd,pd->p", N[j], e)))
-    # Zero-cost edges would vanish from the sparse graph: shift every cost up a little.
-    G = sp.coo_matrix((cost + 1e-9, (i, j)), shape=(n, n)).tocsr()
-    tree = minimum_spanning_tree(G.maximum(G.T))
+    cost = np.empty((n, k))
+    for s in range(0, n, _CHUNK):  # in blocks: (N, k, 3) temporaries are 0.4 GB each at 1M
+        rows, js = np.arange(s, min(s + _CHUNK, n)), nb[s:s + _CHUNK, 1:]
+        e = X[js] - X[rows, None]
+        e /= np.linalg.norm(e, axis=-1, keepdims=True)
+        ni, nj = N[rows, None], N[js]
+        cost[rows] = (1.0 - np.abs((ni * nj).sum(axis=-1)) + np.abs((ni * e).sum(axis=-1))
+                      + np.abs((nj * e).sum(axis=-1)))
+    # Zero-cost edges would vanish from the sparse graph: shift every cost up a little. Each
+    # stored entry is an undirected edge to the spanning tree (Kruskal's): no symmetrizing.
+    G = sp.csr_matrix(((cost + 1e-9).ravel(), nb[:, 1:].ravel(), np.arange(0, n * k + 1, k)),
+                      shape=(n, n))
+    del cost
+    tree = minimum_spanning_tree(G)
+    del G
     tree = tree + tree.T
     n_parts, label = connected_components(tree, directed=False)
     oriented = np.zeros(n, dtype=bool)
