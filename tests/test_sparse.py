@@ -100,3 +100,48 @@ def test_a_matrix_not_positive_definite_is_solved_by_lu(solver):
         spd_factor(A, solver=solver)
     with pytest.raises(ValueError, match="solver: expected 'auto' or one of"):
         spd_factor(A, solver="pardiso")
+
+
+def test_metis_order_keeps_each_vertex_together_and_the_solution(monkeypatch):
+    pytest.importorskip("pymetis")
+    pytest.importorskip("cvxopt")
+    from pcgeom.maps._sparse import fill_order, ordering_name
+
+    n = 20
+    graph = _laplacian(n)  # the vertices' grid graph
+    # Two unknowns per vertex (as LSCM's u and v), two of them pinned (no unknown).
+    unknown = np.arange(2 * n * n).reshape(2, n * n).T.copy()
+    unknown[[0, 7], 1] = -1
+    free = unknown[unknown >= 0]
+    unknown[unknown >= 0] = np.searchsorted(np.sort(free), unknown[unknown >= 0])
+    assert fill_order(graph, unknown) is None  # small: CHOLMOD's own AMD orders it
+    monkeypatch.setattr(_sparse, "METIS_UNKNOWNS", 0)
+    order = fill_order(graph, unknown)
+    assert np.array_equal(np.sort(order), np.arange(2 * n * n - 2))
+    # A vertex's unknowns are eliminated one after the other.
+    position = np.empty_like(order)
+    position[order] = np.arange(len(order))
+    both = (unknown >= 0).all(axis=1)
+    assert (np.abs(position[unknown[both, 0]] - position[unknown[both, 1]]) == 1).all()
+    A = sp.kron(graph, np.array([[2.0, 0.5], [0.5, 2.0]])).tocsr()
+    keep = np.setdiff1d(np.arange(2 * n * n), [1, 15])  # interleaved: vertex v has 2v, 2v + 1
+    A = A[keep][:, keep]
+    b = np.random.default_rng(1).normal(size=A.shape[0])
+    interleaved = np.full((n * n, 2), -1)
+    interleaved[:, 0], interleaved[:, 1] = np.arange(0, 2 * n * n, 2), np.arange(1, 2 * n * n, 2)
+    index = np.full(2 * n * n, -1)
+    index[keep] = np.arange(len(keep))
+    order = fill_order(graph, index[interleaved])
+    x_metis = spd_factor(A, order=order)(b)
+    assert solver_name() == "cholmod" and ordering_name() == "metis"
+    x_amd = spd_factor(A)(b)
+    assert ordering_name() == "amd"
+    np.testing.assert_allclose(x_metis, x_amd, rtol=1e-9, atol=1e-12)
+
+
+def test_missing_pymetis_leaves_the_order_to_cholmod(monkeypatch):
+    from pcgeom.maps._sparse import fill_order
+
+    _hide(monkeypatch, "pymetis")
+    monkeypatch.setattr(_sparse, "METIS_UNKNOWNS", 0)
+    assert fill_order(_laplacian(5), np.arange(25)[:, None]) is None
