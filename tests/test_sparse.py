@@ -145,3 +145,22 @@ def test_missing_pymetis_leaves_the_order_to_cholmod(monkeypatch):
     _hide(monkeypatch, "pymetis")
     monkeypatch.setattr(_sparse, "METIS_UNKNOWNS", 0)
     assert fill_order(_laplacian(5), np.arange(25)[:, None]) is None
+
+
+def test_a_failing_cholesky_gives_way_to_the_next_with_one_line(monkeypatch):
+    pytest.importorskip("cvxopt")
+    pytest.importorskip("cholespy")
+
+    def broken(module, A, order=None):
+        raise ValueError("symbolic factorization failed\nsecond line")
+
+    monkeypatch.setattr(_sparse, "_cholmod", broken)
+    A = _laplacian(10)
+    b = np.ones(A.shape[0])
+    with pytest.warns(UserWarning, match=r"^cholmod failed on a system of 100 unknowns "
+                      r"\(ValueError: symbolic factorization failed\); trying the next") as w:
+        x = spd_factor(A)(b)
+    assert "\n" not in str(w[0].message)
+    assert solver_name() == "cholespy" and np.abs(A @ x - b).max() < 1e-9
+    with pytest.raises(ValueError, match="symbolic factorization failed"):
+        spd_factor(A, solver="cholmod")

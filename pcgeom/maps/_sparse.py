@@ -49,7 +49,7 @@ def _load(solver: str):
         import cholespy
 
         return cholespy
-    except ImportError:
+    except (ImportError, OSError):  # not installed, or a binary that does not load
         return None
 
 
@@ -175,8 +175,9 @@ def spd_factor(A, *, solver: str = "auto", order: np.ndarray | None = None):
     ``order``: a fill-reducing permutation of the unknowns (:func:`fill_order`), used by
     CHOLMOD (the others order the matrix themselves).
 
-    ``solver``: ``"auto"`` (the first of :data:`SOLVERS` that loads, SuperLU's LU when the
-    matrix is not positive definite to its pivots), or one of :data:`SOLVERS` (a
+    ``solver``: ``"auto"`` (the first of :data:`SOLVERS` that loads and factors, with a
+    one-line warning for one that fails; SuperLU's LU when the matrix is not positive
+    definite to its pivots), or one of :data:`SOLVERS` (a
     ``ValueError`` when it is not installed, or when a Cholesky meets a matrix that is not
     positive definite). SuperLU is ordered for symmetry: minimum degree on ``A^T + A`` and
     no pivoting, which a positive definite matrix does not need (its default, COLAMD with
@@ -200,7 +201,18 @@ def spd_factor(A, *, solver: str = "auto", order: np.ndarray | None = None):
                 raise ValueError(f"solver {name!r}: {_MODULES[name]} is not installed")
             missing.append(name)
             continue
-        solve = (_cholmod(module, A, order) if name == "cholmod" else _cholespy(module, A))
+        try:
+            solve = (_cholmod(module, A, order) if name == "cholmod"
+                     else _cholespy(module, A))
+        except (ValueError, RuntimeError, MemoryError) as err:
+            if solver == name:
+                raise
+            # A solver that fails where it should not (its own bug, its memory): the next.
+            why = (str(err).splitlines() or [""])[0]
+            warnings.warn(f"{name} failed on a system of {A.shape[0]} unknowns "
+                          f"({type(err).__name__}: {why}); trying the next solver",
+                          stacklevel=2)
+            continue
         if solve is None:
             if solver == name:
                 raise ValueError(f"solver {name!r}: the matrix is not positive definite")
