@@ -315,6 +315,40 @@ def scale_rows(sizes, work: Path, samplings=SAMPLINGS, domain: str = "free",
     return rows
 
 
+def small_rows(names, work: Path, tree: Path, repeats: int = 3) -> list[dict]:
+    """Small clouds (the shared surfaces, bare) by this version and by the one in ``tree``,
+    runs interleaved (this, before, this, ...) so that both meet the same machine load:
+    median wall seconds, angles and flips on the true triangles."""
+    import os
+
+    rows = []
+    for name in names:
+        s = H.load_surface(name)
+        src = work / f"{name}_small_bare.xyz"
+        np.savetxt(src, s.V)
+        runs = {"this": [], "before": []}
+        for k in range(repeats):
+            for version in runs:
+                saved = os.environ["PYTHONPATH"]
+                if version == "before":
+                    os.environ["PYTHONPATH"] = os.fspath(tree)
+                out = work / f"{name}_small_{version}_{k}_uv.npz"
+                try:
+                    run = H.pcgeom_cli(*H.param_args(src, out))
+                finally:
+                    os.environ["PYTHONPATH"] = saved
+                runs[version].append({**run, **H.score_file(out, s.V, s.F)})
+        for version, done in runs.items():
+            rows.append({"surface": name, "points": len(s.V), "version": version,
+                         "runs": len(done), "wall_s": H.median(done, "wall_s"),
+                         "rss_gb": H.median(done, "rss_gb"), "rad": done[0]["rad"],
+                         "flipped": done[0]["flipped"]})
+        ratio = rows[-2]["wall_s"] / rows[-1]["wall_s"]
+        H.log(f"{name}: this {rows[-2]['wall_s']:.1f} s, before {rows[-1]['wall_s']:.1f} s "
+              f"({ratio:.2f}x)")
+    return rows
+
+
 def slope(rows, sampling: str, domain: str = "free", lo: int = 100_000,
           hi: int = 1_000_000) -> float | None:
     """The slope of log wall time against log N between the rows nearest ``lo`` and ``hi``
@@ -375,8 +409,11 @@ def plot_scale(rows, path: Path) -> None:
                 continue
             k = slope(rows, sampling, domain) if version == "this" else None
             label = f"{sampling}, {domain}" + ("" if version == "this" else f" ({version})")
+            if k:  # from the size nearest 100k to the largest
+                lo = min(mine, key=lambda r: abs(np.log(r["points"] / 100_000)))["points"]
+                label += f", slope {k:.2f} ({lo // 1000}k-{mine[-1]['points'] // 1000}k)"
             ax.loglog([r["points"] for r in mine], [r["wall_s"] for r in mine], style,
-                      color=colour, label=label + (f", slope {k:.2f}" if k else ""))
+                      color=colour, label=label)
     n = np.array([r["points"] for r in rows], dtype=float)
     if len(n):
         top = max(r["wall_s"] for r in rows if r["points"] == n.max())
@@ -466,7 +503,7 @@ def render_denoise(depth, clean, recon) -> list[str]:
 
 
 def render(quality, disk, noise, scale, argv, plot: str | None, depth=(), clean=(),
-           recon=()) -> str:
+           recon=(), small=()) -> str:
     import os
     import platform
 
@@ -536,6 +573,15 @@ def render(quality, disk, noise, scale, argv, plot: str | None, depth=(), clean=
                                  key=lambda r: (r["sampling"], r["points"], r["version"])))]
         if plot is not None:
             out += ["", f"![time against N]({plot})"]
+    if small:
+        out += ["", "Small clouds, bare, `fast`, this version and `before` (`--baseline`) "
+                "interleaved in one run (medians of the runs; angles and flips on the true "
+                "triangles, the first run's):", "",
+                *H.table([("surface", "{surface}"), ("points", "{points}"),
+                          ("version", "{version}"), ("runs", "{runs}"),
+                          ("wall s", "{wall_s:.1f}"), ("peak RSS, GB", "{rss_gb:.2f}"),
+                          ("mean abs angle, rad", "{rad:.4f}"), ("flipped", "{flipped}")],
+                         small)]
     return "\n".join(out)
 
 
@@ -569,6 +615,9 @@ def main(argv=None) -> int:
                    help="a pcgeom source tree (e.g. a git worktree of an earlier commit) run "
                         "side by side at --baseline-sizes")
     p.add_argument("--baseline-sizes", nargs="*", type=int, default=[100_000, 300_000])
+    p.add_argument("--baseline-surfaces", nargs="*",
+                   default=["peaks3", "face_3holes_small_choi", "face_human_choi"],
+                   help="small clouds (bare) also run side by side with --baseline")
     p.add_argument("--section", default="bench_scans",
                    help="the marked section of --out to replace (bench_scans_large for a run "
                         "of the largest sizes alone: --surfaces --noise --disk --sizes 1000000 "
@@ -593,6 +642,10 @@ def main(argv=None) -> int:
         if args.baseline is not None and args.baseline_sizes:
             scale += scale_rows(args.baseline_sizes, work, args.samplings,
                                 tree=args.baseline.resolve(), version="before")
+        small = []
+        if args.baseline is not None:
+            small = small_rows([s for s in args.baseline_surfaces if H.available(s)], work,
+                               args.baseline.resolve())
     plot = None
     if len(scale) > 1:  # the repository's figures for its BENCHMARKS.md, else next to --out
         home = args.out.resolve().parent
@@ -601,7 +654,8 @@ def main(argv=None) -> int:
         plot_scale(scale, folder / f"{stem}_time_vs_n.png")
         plot = (folder / f"{stem}_time_vs_n.png").relative_to(home).as_posix()
     H.write_section(args.out, args.section,
-                    render(quality, disk, noise, scale, argv, plot, depth, clean, recon))
+                    render(quality, disk, noise, scale, argv, plot, depth, clean, recon,
+                           small))
     return 0
 
 
