@@ -513,3 +513,17 @@ def test_help_has_examples(capsys):
     out = capsys.readouterr().out
     assert "examples:" in out and "--map scan_uv.npz" in out and "--h 0.02" in out
     assert "Loops of fewer than 8 points are dropped" in out
+
+
+def test_cli_measures_hole_widths_on_the_points_a_denoised_map_was_made_of(tmp_path, capsys):
+    src, U, _, _ = _flat_cloud(tmp_path)
+    P = read_points(src).points
+    fitted = P.copy()
+    fitted[:, 2] += np.random.default_rng(0).normal(scale=0.3, size=len(P))  # not P's widths
+    map_path = _write_map(tmp_path / "map.npz", P, U, fitted=fitted)
+    out = tmp_path / "loops.json"
+    assert cli.main(["boundary", str(src), "--map", str(map_path), "--out", str(out),
+                     "--json"]) == 0
+    widths = json.loads(capsys.readouterr().out)["hole_widths"]
+    on_fitted = detect_boundary(U, points=fitted).to_dict()["widths"]
+    assert widths == on_fitted != detect_boundary(U, points=P).to_dict()["widths"]

@@ -113,7 +113,9 @@ def run(args) -> int:
         result = parametrize(points, "free", config=get_preset("fast"),
                              progress=not args.quiet)
 
-    found = detect_boundary(result.uv, h=args.h, points=points, min_width=args.min_width,
+    # A denoised map was made of the fitted points: the holes' widths are measured on them.
+    surface = result.fitted if result.fitted is not None else points
+    found = detect_boundary(result.uv, h=args.h, points=surface, min_width=args.min_width,
                             cloud_spacing=args.cloud_spacing)
     document = {**found.to_dict(), "input": args.input, "n_points": len(points)}
     write_atomic(out, lambda f: f.write(json.dumps(document).encode("utf-8")))
