@@ -261,6 +261,15 @@ OFFSET_FACTOR = 3.0
 """... or when it sits farther than this many median spacings off its neighbours' plane."""
 
 
+def _workers() -> int:
+    """Threads for the k-d tree queries: torch's thread count, the one budget of a run (the
+    CLI's ``--threads``, a batch task's ``--threads-per-worker``), so that a Dask worker's
+    queries do not take every core."""
+    import torch
+
+    return max(1, torch.get_num_threads())
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class Neighbours:
     """Each point's nearest points, itself first: one k-d tree query that a cloud's steps
@@ -280,11 +289,11 @@ class Neighbours:
     @classmethod
     def of(cls, X, k: int) -> "Neighbours":
         """The ``k`` nearest points of every point of ``X`` (distinct points; at most
-        ``len(X) - 1``), by scipy's k-d tree on all cores."""
+        ``len(X) - 1``), by scipy's k-d tree on :func:`_workers` threads."""
         from scipy.spatial import cKDTree
 
         X = np.asarray(X, dtype=np.float64)
-        dist, index = cKDTree(X).query(X, min(int(k), len(X) - 1) + 1, workers=-1)
+        dist, index = cKDTree(X).query(X, min(int(k), len(X) - 1) + 1, workers=_workers())
         return cls(dist.reshape(len(X), -1), index.reshape(len(X), -1))
 
     @property
@@ -315,7 +324,7 @@ class Neighbours:
         index, dist = index[:, :k + 1], dist[:, :k + 1]
         if len(lost):
             Xk = np.asarray(X, dtype=np.float64)[rows]
-            d, i = cKDTree(Xk).query(Xk[lost], k + 1, workers=-1)
+            d, i = cKDTree(Xk).query(Xk[lost], k + 1, workers=_workers())
             dist[lost], index[lost] = d.reshape(len(lost), -1), i.reshape(len(lost), -1)
         return Neighbours(dist, index)
 
