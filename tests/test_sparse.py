@@ -54,11 +54,13 @@ def test_each_cholesky_solves_the_system_superlu_solves(solver):
     np.testing.assert_allclose(x_one, x_lu[:, 0], rtol=1e-8, atol=1e-10)
 
 
-def test_auto_prefers_cholmod():
-    pytest.importorskip("cvxopt")
+def test_auto_prefers_cholmod_and_leaves_cvxopt_options_as_they_were(monkeypatch):
+    cholmod = pytest.importorskip("cvxopt.cholmod")
+    monkeypatch.setattr(cholmod, "options", {"supernodal": 0})
     A = _laplacian(10)
-    spd_factor(A)(np.ones(A.shape[0]))
-    assert solver_name() == "cholmod"
+    x = spd_factor(A)(np.ones(A.shape[0]))
+    assert solver_name() == "cholmod" and np.abs(A @ x - 1.0).max() < 1e-9
+    assert cholmod.options == {"supernodal": 0}
 
 
 def test_missing_cvxopt_falls_back_to_cholespy_with_one_notice(monkeypatch):

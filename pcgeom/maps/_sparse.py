@@ -128,14 +128,18 @@ def _cholmod(cvxopt, A, order=None):
     M = cvxopt.spmatrix(cvxopt.matrix(lower.data), cvxopt.matrix(lower.indices.astype(np.int64)),
                         cvxopt.matrix(cols), lower.shape)
     del lower, cols
-    options = cvxopt.cholmod.options
+    options = cvxopt.cholmod.options  # module-wide: CHOLMOD's defaults here, the caller's after
+    saved = dict(options)
     options.clear()
-    if order is not None:
-        options["nmethods"] = 1  # the order given, not also AMD's to compare (1.4 s at 1M)
-        factor = cvxopt.cholmod.symbolic(M, p=cvxopt.matrix(np.asarray(order, np.int64)))
+    try:
+        if order is not None:
+            options["nmethods"] = 1  # the order given, not also AMD's to compare (1.4 s at 1M)
+            factor = cvxopt.cholmod.symbolic(M, p=cvxopt.matrix(np.asarray(order, np.int64)))
+        else:
+            factor = cvxopt.cholmod.symbolic(M)
+    finally:
         options.clear()
-    else:
-        factor = cvxopt.cholmod.symbolic(M)
+        options.update(saved)
     try:
         cvxopt.cholmod.numeric(M, factor)
     except ArithmeticError:  # not positive definite
