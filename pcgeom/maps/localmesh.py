@@ -212,7 +212,8 @@ def _greedy_claims(edges: np.ndarray) -> np.ndarray:
     (every earlier triangle sharing an edge is already out), so each round keeps all of them
     and drops the undecided triangles they block (the lexicographically first maximal
     independent set of the conflict graph, computed as in Luby's algorithm with the row order
-    as priorities). Rounds on the fans of a 300k-point cloud: about ten.
+    as priorities). Rounds on the fans of 300k-point height fields: 3 (uniform random
+    points) and 2 (a jittered grid).
     """
     m = len(edges)
     ids = np.unique(edges, return_inverse=True)[1].reshape(m, 3)
