@@ -372,12 +372,12 @@ def find_outliers(X, neighbours: int = 16, *, knn: Neighbours | None = None
         _, frame = np.linalg.eigh(np.matmul(Q.transpose(0, 2, 1), Q))  # columns: n, e1, e2
         local = np.matmul(Q, frame)  # (n, k, 3)
         own = np.matmul((X[s:s + _FIT_CHUNK] - centre)[:, None, :], frame)  # (n, 1, 3)
-        A = _quadric_rows(local)  # (n, k, 6)
+        A = _quadric_basis(local[..., 1], local[..., 2])  # (n, k, 6)
         At = A.transpose(0, 2, 1)
         coef = np.linalg.solve(np.matmul(At, A) + 1e-12 * np.eye(6),
                                np.matmul(At, local[..., :1]))  # (n, 6, 1)
-        offset[s:s + _FIT_CHUNK] = np.abs(own[:, 0, 0]
-                                          - np.matmul(_quadric_rows(own), coef)[:, 0, 0])
+        height = np.matmul(_quadric_basis(own[..., 1], own[..., 2]), coef)[:, 0, 0]
+        offset[s:s + _FIT_CHUNK] = np.abs(own[:, 0, 0] - height)
     return isolated | (offset > OFFSET_FACTOR * np.median(dist[:, 1]))
 
 
@@ -385,9 +385,9 @@ _FIT_CHUNK = 65_536
 """Points per block of :func:`find_outliers`' quadric fits."""
 
 
-def _quadric_rows(local: np.ndarray) -> np.ndarray:
-    """``[1, x, y, x^2, x y, y^2]`` of local coordinates ``(..., 3)`` (height, x, y)."""
-    x, y = local[..., 1], local[..., 2]
+def _quadric_basis(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``[1, x, y, x^2, x y, y^2]`` along a new last axis: the quadric fits' basis here and in
+    :mod:`pcgeom.denoise`."""
     return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
 
 

@@ -54,7 +54,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .cloud import Neighbours, find_outliers, local_pca, surface_variation
+from .cloud import Neighbours, _quadric_basis, find_outliers, local_pca, surface_variation
 from .config import DenoiseConfig
 
 __all__ = ["NoiseEstimate", "estimate_noise", "fit_heights", "denoise_points"]
@@ -84,11 +84,6 @@ class NoiseEstimate(NamedTuple):
     def relative(self) -> float:
         """``std / spacing``: the noise in mean spacings."""
         return self.std / self.spacing if self.spacing > 0 else 0.0
-
-
-def _quadric_basis(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """``[1, x, y, x^2, x y, y^2]`` along a new last axis."""
-    return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
 
 
 def estimate_noise(X, neighbours: int = 16, normals=None, *, knn: Neighbours | None = None

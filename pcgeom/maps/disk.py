@@ -12,7 +12,7 @@ from ..domains import Disk
 from ..errors import InputError
 from ._sparse import spd_factor
 from .free import conformal_factor, free_start
-from .localmesh import (LocalMesh, _boundary_loops, _interpolate_rest, _main_part,
+from .localmesh import (LocalMesh, _boundary_loops, _edge_ids, _interpolate_rest, _main_part,
                         _signed_area, _submesh, _vertex_manifold, mesh_flips)
 
 __all__ = ["conformal_disk", "disk_map", "RIM_ANGLE"]
@@ -79,9 +79,7 @@ def _peel_rim(P: np.ndarray, T: np.ndarray, rounds: int = 20) -> np.ndarray:
     opposite = np.concatenate([T[:, 2], T[:, 0], T[:, 1]])  # (3M,)
     face = np.arange(len(edges)) % max(m, 1)
     # Each edge's undirected id and how many kept triangles have it, updated as they go.
-    n = int(T.max(initial=-1)) + 1
-    _, eid = np.unique(np.minimum(edges[:, 0], edges[:, 1]).astype(np.int64) * n
-                       + np.maximum(edges[:, 0], edges[:, 1]), return_inverse=True)
+    eid = _edge_ids(edges)
     uses = np.bincount(eid)
     kept = np.ones(m, dtype=bool)
     for _ in range(rounds):

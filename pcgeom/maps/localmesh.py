@@ -329,11 +329,19 @@ def _edge_sides(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
     if not len(edges):
         return edges, np.zeros(0, dtype=bool)
-    # An undirected edge as one integer, a * n + b with a < b: a 1D sort, not a row sort.
-    n = int(edges.max()) + 1
-    key = edges.min(axis=1).astype(np.int64) * n + edges.max(axis=1)
-    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    return edges, counts[inverse] == 1
+    ids = _edge_ids(edges)
+    return edges, np.bincount(ids)[ids] == 1
+
+
+def _edge_ids(edges: np.ndarray) -> np.ndarray:
+    """(E,) int64: the same number for the rows of ``edges`` (E, 2) that join the same two
+    vertices, in either direction, numbered ``0 ..`` in order of the pair. Each pair is one
+    integer, ``a * n + b`` with ``a < b``: a 1D sort, not a row sort."""
+    if not len(edges):
+        return np.zeros(0, dtype=np.int64)
+    a, b = edges[:, 0].astype(np.int64), edges[:, 1].astype(np.int64)
+    n = int(max(a.max(), b.max())) + 1
+    return np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_inverse=True)[1].ravel()
 
 
 def _vertex_manifold(faces: np.ndarray, rounds: int = 5) -> np.ndarray:
@@ -373,11 +381,9 @@ def _unpaired(directed: np.ndarray) -> np.ndarray:
     (boundary edges of a consistently oriented mesh)."""
     if not len(directed):
         return np.zeros(0, dtype=bool)
-    n = int(directed.max()) + 1
-    a, b = directed[:, 0].astype(np.int64), directed[:, 1].astype(np.int64)
-    forward = a < b
+    forward = directed[:, 0] < directed[:, 1]
     # Grouped by undirected edge: unpaired when its group has no edge the other way.
-    _, group = np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_inverse=True)
+    group = _edge_ids(directed)
     ahead = np.bincount(group, weights=forward)
     back = np.bincount(group, weights=~forward)
     return np.where(forward, back[group], ahead[group]) == 0
