@@ -39,6 +39,23 @@ point.
    larger neighbourhoods more, the noisy mesh's normals 0.142. This, not the fitted heights,
    is what limits a bare cloud.
 
+Measured and not kept (face_3holes_small_choi, depth noise 0.5, seeds 0 / 1 / 2; distance of
+the denoised points to the clean mesh in noise std; today's fits: largest 1.11 / 1.46 / 1.33,
+mean 0.229 / 0.231 / 0.228, on the rim 1.08 / 1.31 / 1.33). The largest errors inside sit where
+the face curves most (curvature times spacing 0.80-0.86, its 99.9th percentile: the quadric's
+bias), those on the rim are one-sided fits.
+
+- Fixed widths 2 / 4 / 5 spacings: largest 1.73-2.15 / 1.18-1.49 / 1.22-1.53.
+- A width per point (1-5 spacings, the widest whose height's confidence interval still meets
+  the narrower ones', kappa 0.5-2): largest 1.16-2.19; it takes the widest at 81-99% of the
+  points, since a fit 1-2 spacings wide is too noisy to show the wider one's bias.
+- Each point projected on its 16 nearest neighbours' fits and blended (a partition of unity,
+  weights Gaussian in distance times ``exp(-2 o^2)``, ``o`` a fit's centroid offset over its
+  width): mean 0.214 / 0.216 / 0.213, rim 0.99 / 1.27 / 1.30, largest 1.08 / 1.47 / 1.30; the
+  maps (judged on the clean mesh, seed 0) face_3holes_small_choi 0.0635 -> 0.0611 rad at depth
+  0.5 and 0.0267 -> 0.0269 at 0.25, face_human_choi 0.2350 -> 0.2311 and 0.1183 -> 0.1022;
+  with 32 neighbours' fits 0.0614, 0.0273, 0.2339, 0.1178: no consistent gain.
+
 pymeshlab's MLS projections (``compute_mls_projection_apss`` and ``_rimls``, pymeshlab
 2025.7.post1) were to be measured against this: both crash the interpreter (segmentation
 fault) on these clouds, with or without faces, with or without torch imported.

@@ -126,6 +126,35 @@ the rule opens spurious holes; on a map that stretches (the xy projection of pea
 slopes) the map's Delaunay triangles are long in 3D and it cuts the surface. Not the
 default.
 
+What the default gets wrong, and rules measured against it
+----------------------------------------------------------
+On the bare clouds' ``fast`` maps (normals estimated; loops found, true loops recovered,
+precision / recall of boundary points): face_3holes_small_choi 4, 4/4, 0.997 / 0.994;
+face_human_choi 24, 1/1, 0.433 / 1.000; peaks_7holes_choi 3, 2/8, 0.970 / 0.551;
+peaks_three_cgal 2, 1/1, 0.910 / 1.000; the pleat of :func:`pcgeom.synthetic.pleated_sheet`
+with sheets 1.5 / 2 / 2.5 spacings apart 2 / 1 / 1 loops, recall 0.228 / 0.958 / 0.939. The
+false loops of face_human_choi are slits where its sampling jumps from coarse to dense rows
+(eyelids, lips): its local mesh has holes there (76 loops), which the free map opens; the holes
+of peaks_7holes_choi are bridged by the local mesh's fans (its loops there have 5-7 points) and
+the map crushes them. Measured on the same maps and not kept:
+
+- Each Delaunay triangle judged in 3D against the median circumradius of the local mesh's
+  triangles at its corners (c = 2-3): face_3holes_small_choi 7 loops (2/4 recovered),
+  face_human_choi 33-35, peaks_7holes_choi 1 (recall 0.35-0.40), the 1.5-spacing pleat 17-26.
+  The fans' bridges inflate the spacing of rim points, and rows closer together than their
+  points (face_human_choi) make Delaunay triangles of circumradius ``s^2 / (8 g)`` (``s``
+  along a row, ``g`` across) that belong to the surface.
+- The same circumradius rule inside the fans (a star's triangle dropped above c = 2 or 3
+  times the median distance to the star's points): face_human_choi's local mesh falls apart
+  (its LSCM system is singular), for the same rows.
+- Fans without triangles longer than 2 or 3 times the largest distance to the 8th neighbour
+  at their corners: peaks_7holes_choi 2-3 loops, face_human_choi 21-28; the triangles that
+  bridge peaks' holes are not that long in 3D.
+- ``cloud_spacing`` with a hole's width measured across it (the median distance from its
+  points to the loop's far side, in spacings): the true holes of peaks_7holes_choi 1.8-2.8,
+  the false ones of face_human_choi 0.8-16.6 (among them loops of 824 and 206 points at the
+  eyes): they overlap.
+
 Where loops touch (a non-manifold vertex)
 -----------------------------------------
 Each boundary edge is walked with its kept triangle on the left and the removed region on
