@@ -148,6 +148,16 @@ def test_configs_are_frozen(obj, attr):
          "got (6, 2)"),
         (lambda: LocalMeshConfig(normal_tolerance=1.5),
          "LocalMeshConfig.normal_tolerance: expected a number in [0, 1), got 1.5"),
+        (lambda: LocalMeshConfig(robust_rounds=-1),
+         "LocalMeshConfig.robust_rounds: expected an int >= 0, got -1"),
+        (lambda: LocalMeshConfig(robust_rounds=1.0),
+         "LocalMeshConfig.robust_rounds: expected an int, got float"),
+        (lambda: LocalMeshConfig(robust_scale=0.0),
+         "LocalMeshConfig.robust_scale: expected a positive finite number, got 0.0"),
+        (lambda: LocalMeshConfig(robust_floor=0.0),
+         "LocalMeshConfig.robust_floor: expected a number in (0, 1], got 0.0"),
+        (lambda: LocalMeshConfig(robust_floor=True),
+         "LocalMeshConfig.robust_floor: expected a number in (0, 1], got True"),
         # nested configs must be configs
         (lambda: ParamConfig(schedule={"epochs": 3}),
          "ParamConfig.schedule: expected a ScheduleConfig, got dict"),
@@ -163,6 +173,7 @@ def test_configs_reject_bad_values(make, message):
 
 def test_zero_is_allowed_where_it_means_off():
     assert RefineConfig(steps=0).steps == 0  # no refinement
+    assert LocalMeshConfig(robust_rounds=0).robust_rounds == 0  # plain LSCM
     assert ParamConfig(max_stages=0).max_stages == 0  # all stages
     assert OptimizerConfig(momentum=0.0).momentum == 0.0
     assert LossWeights(domain=0.0, landmarks=0).domain == 0.0  # a term switched off

@@ -314,3 +314,77 @@ def test_merge_keeps_what_a_sequential_greedy_pass_keeps():
     kept = _greedy_claims(edges)
     np.testing.assert_array_equal(kept, expected)
     assert 20 < kept.sum() < len(tris) // 2  # many conflicts: a test of the rounds
+
+
+# --------------------------------------------------------------------------- robust LSCM
+
+
+def test_weighted_lscm_form_with_unit_weights_is_libigls():
+    """The per-edge form (weighted cotangents, each triangle's signed area) with every
+    weight 1 acts as libigl's -1/2 (L (+) L) - vector_area_matrix: inner edges' areas
+    cancel. A triangle at weight 0 is as if removed."""
+    import igl
+    import scipy.sparse as sp
+
+    from pcgeom.maps.free import _apply_form, _weighted_form
+
+    X, N, _, _ = folded_strip()
+    F = local_mesh(X, N, 16).faces
+    L0 = igl.cotmatrix(X, F)
+    Q0 = -0.5 * sp.block_diag([L0, L0]) - igl.vector_area_matrix(F)
+    x = np.random.default_rng(5).normal(size=2 * len(X))
+    form = _weighted_form(X, F, np.ones(len(F)))
+    np.testing.assert_allclose(_apply_form(form, x), Q0 @ x, rtol=0, atol=1e-10 * abs(Q0).max())
+    w = np.ones(len(F))
+    w[7] = 0.0
+    rest = _weighted_form(X, np.delete(F, 7, axis=0), np.ones(len(F) - 1))
+    np.testing.assert_allclose(_apply_form(_weighted_form(X, F, w), x), _apply_form(rest, x),
+                               rtol=0, atol=1e-12 * abs(Q0).max())
+
+
+def test_anticonformal_part_of_known_maps():
+    """|J_a| / |J_c| of a triangle's map: 0 for a similarity, (a - b) / (a + b) for a stretch
+    diag(a, b) in the triangle's plane, above 1 for a mirror image."""
+    from pcgeom.maps.free import _anticonformal
+
+    rng = np.random.default_rng(4)
+    P = rng.normal(size=(3, 2))  # a triangle in the plane z = 0
+    V = np.column_stack([P, np.zeros(3)])
+    e1, e2 = P[1] - P[0], P[2] - P[0]
+    F = np.array([[0, 1, 2]]) if e1[0] * e2[1] - e1[1] * e2[0] > 0 else np.array([[0, 2, 1]])
+    turn = np.array([[np.cos(0.7), -np.sin(0.7)], [np.sin(0.7), np.cos(0.7)]])
+    for A, want in [(2.5 * turn, 0.0), (np.diag([2.0, 1.0]), 1.0 / 3.0),
+                    (np.diag([1.0, 4.0]) @ turn, 3.0 / 5.0)]:
+        U = P @ A.T
+        got = _anticonformal(V, F, U[:, 0], U[:, 1])
+        np.testing.assert_allclose(got, [want], atol=1e-12)
+    U = P @ np.diag([1.0, -1.0]).T  # a mirror: all anti-conformal
+    assert _anticonformal(V, F, U[:, 0], U[:, 1])[0] > 1e6
+
+
+def test_robust_rounds_map_a_bare_pleat_closer_to_its_true_map():
+    """The local mesh of a bare pleat has wrong triangles at its folds' bends; reweighting
+    them (robust_rounds) brings the map of this developable sheet closer to its exact map
+    (measured on 6000 points, sheets 2.5 spacings apart: 0.0135 -> 0.0100 rad, no flip either
+    way), and a plane stays a similarity."""
+    import dataclasses
+
+    from pcgeom.synthetic import pleated_sheet
+
+    sheet = pleated_sheet(6000, folds=4, gap=2.5)
+    fast = get_preset("fast")
+    assert fast.local_mesh.robust_rounds == 1
+    plain = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh,
+                                                                      robust_rounds=0))
+    robust = angle_distortion(sheet.points, sheet.faces,
+                              parametrize(sheet.points, config=fast, progress=False).uv)
+    before = angle_distortion(sheet.points, sheet.faces,
+                              parametrize(sheet.points, config=plain, progress=False).uv)
+    assert robust.mean_abs < 0.85 * before.mean_abs, (robust.mean_abs, before.mean_abs)
+    assert robust.flipped <= before.flipped
+
+    st = _jittered_grid(20, 15, 1.0, seed=2)
+    X = np.column_stack([st, np.zeros(len(st))])
+    mesh = local_mesh(X, np.tile([0.0, 0.0, 1.0], (len(X), 1)), 24)
+    U = lscm_free(X, mesh, rounds=2)
+    assert angle_distortion(X, _grid_faces(20, 15), U).mean_abs < 1e-8

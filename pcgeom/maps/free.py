@@ -1,10 +1,17 @@
 """The free-boundary conformal map of the local mesh: LSCM, then the conformal factor.
 
 4. **LSCM** (Levy et al. 2002) on the local mesh (:mod:`pcgeom.maps.localmesh`, steps 1-3):
-   minimize the conformal energy, the Dirichlet energy (libigl's cotangent matrix) minus the
-   signed area (libigl's ``vector_area_matrix``), with two far-apart points pinned. Points
-   outside the mesh's largest connected part take the distance-weighted mean of the map at
-   their nearest meshed points (they are counted).
+   minimize the conformal energy, the Dirichlet energy (cotangent weights) minus the signed
+   area, with two far-apart points pinned. Points outside the mesh's largest connected part
+   take the distance-weighted mean of the map at their nearest meshed points (they are
+   counted). **Robust rounds** (``LocalMeshConfig.robust_rounds``, not in LSCM): a local
+   mesh has triangles no surface map can keep conformal with the rest (where a fold bends
+   within a spacing or two, across a crease's walls), and least squares spreads their error
+   over the whole map. Each round solves again with every triangle's conformal energy
+   weighted by ``max(1 / (1 + (d / s)^2), floor)`` (a Cauchy M-estimator, as in iteratively
+   reweighted least squares), ``d`` how far from conformal the previous solve mapped it; the
+   floor keeps every triangle in the energy, so none is left free to turn over. Measured in
+   :class:`pcgeom.config.LocalMeshConfig`.
 5. **Conformal factor.** ``l_i``, the inverse-lambda of LEG, is set so that LEG's
    ``(l_i + l_j) |u_i - u_j|`` matches ``|x_i - x_j|`` at the point's nearest neighbours.
 
@@ -37,8 +44,18 @@ from .refine import refine
 __all__ = ["lscm_free", "conformal_factor", "free_map", "free_start"]
 
 
-def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
+def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float = 0.02,
+              floor: float = 0.1) -> np.ndarray:
     """Free-boundary LSCM of the mesh's main part; other points interpolated (step 4).
+
+    ``rounds`` > 0: that many reweighted solves after the first (step 4's robust rounds):
+    each triangle's conformal energy weighted by ``max(1 / (1 + (d / scale)^2), floor)``,
+    ``d`` its distortion in the previous solve (:func:`_anticonformal`). Each is solved by
+    conjugate gradients preconditioned with the plain system's factor: every triangle's
+    energy is positive semi-definite, so ``floor Q <= Q_w <= Q`` and the preconditioned
+    system's condition number is at most ``1 / floor`` (10: about 30 iterations to 1e-10),
+    with no second factor in memory (whose fill would be larger: weights couple u and v
+    along every inner edge, where plain LSCM couples them on the rim only).
 
     Returns
     -------
@@ -69,11 +86,33 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     unknown = np.full(2 * m, -1)
     unknown[free] = np.arange(len(free))
     order = fill_order(L, unknown.reshape(2, m).T)
-    del L, V, F, unknown
-    z = spd_factor(Q_ff, order=order)(rhs)
-    if not np.isfinite(z).all():
-        raise InputError("the local mesh of the cloud is degenerate (LSCM has no unique "
-                         "solution); try more neighbours or the 'networks' preset")
+    del L, unknown
+    solve = spd_factor(Q_ff, order=order)
+    del Q_ff
+    z = solve(rhs)
+    _check_finite(z)
+    for _ in range(rounds):
+        flat = np.empty(2 * m)
+        flat[fixed] = values
+        flat[free] = z
+        weights = np.maximum(1.0 / (1.0 + (_anticonformal(V, F, flat[:m], flat[m:]) / scale)
+                                    ** 2), floor)
+        del flat
+        form = _weighted_form(V, F, weights)
+        del weights
+
+        def apply(x_free, form=form):  # Q_w restricted to the free unknowns
+            x = np.zeros(2 * m)
+            x[free] = x_free
+            return _apply_form(form, x)[free]
+
+        pinned = np.zeros(2 * m)
+        pinned[fixed] = values
+        rhs = -_apply_form(form, pinned)[free]
+        z = _preconditioned_cg(apply, rhs, solve, z)
+        del form, pinned, rhs
+        _check_finite(z)
+    del solve, V, F
     flat = np.empty(2 * m)
     flat[fixed] = values
     flat[free] = z
@@ -81,6 +120,101 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh) -> np.ndarray:
     U[main] = np.column_stack([flat[:m], flat[m:]])
     return _principal_pose(_interpolate_rest(X, U, mesh.main))
 
+
+def _check_finite(z: np.ndarray) -> None:
+    if not np.isfinite(z).all():
+        raise InputError("the local mesh of the cloud is degenerate (LSCM has no unique "
+                         "solution); try more neighbours or the 'networks' preset")
+
+
+def _preconditioned_cg(apply, b: np.ndarray, solve, x0: np.ndarray, rtol: float = 1e-10,
+                       maxiter: int = 200) -> np.ndarray:
+    """``A x = b`` by conjugate gradients, ``A`` given by its product ``apply(x)``,
+    preconditioned with ``solve`` (an approximate inverse of ``A``), from ``x0``."""
+    from scipy.sparse.linalg import LinearOperator, cg
+
+    n = len(b)
+    A = LinearOperator((n, n), matvec=apply, dtype=np.float64)
+    M = LinearOperator((n, n), matvec=solve, dtype=np.float64)
+    x, info = cg(A, b, x0=x0, rtol=rtol, maxiter=maxiter, M=M)
+    if info != 0:
+        import warnings
+
+        warnings.warn(f"robust LSCM: conjugate gradients stopped after {maxiter} iterations "
+                      "short of their tolerance; the map is the last iterate", stacklevel=3)
+    return x
+
+
+def _weighted_form(V: np.ndarray, F: np.ndarray, weights: np.ndarray) -> tuple:
+    """LSCM's quadratic form with each triangle's conformal energy weighted, on the mesh's
+    undirected edges ``lo < hi``: ``(lo, hi, C, S, D)``.
+
+    Triangle ``t``'s conformal energy is its Dirichlet energy minus its signed area in the
+    map, ``w_t (1/2 sum_e cot(theta_e) |u_a - u_b|^2 / 2 - A_t)``, ``theta_e`` the angle
+    opposite edge ``e = (a, b)`` and ``A_t = 1/2 sum_(a -> b) (u_a v_b - u_b v_a)`` over its
+    three edges as it turns. Summed per edge: ``C_e`` (the weighted half cotangents over
+    2), ``S_e`` (the weighted area terms over 4, signed for ``lo -> hi``), and ``D_i`` (the
+    sum of ``C_e`` at vertex ``i``). As a matrix (:func:`_apply_form`), with every weight 1,
+    libigl's ``-1/2 (L (+) L) - vector_area_matrix`` (tests/test_maps_localmesh.py; the
+    area terms of inner edges then cancel). Kept on edges, not as a sparse matrix: at a
+    million points the matrix and its assembly would hold about a gigabyte beside the
+    factor.
+    """
+    import igl
+
+    m = len(V)
+    a = F[:, [1, 2, 0]].ravel()
+    b = F[:, [2, 0, 1]].ravel()  # column k's edge, opposite corner k, as the triangle turns
+    c = 0.5 * (igl.cotmatrix_entries(V, F) * weights[:, None]).ravel()
+    q = np.repeat(0.25 * weights, 3) * np.where(a < b, 1.0, -1.0)
+    key = np.minimum(a, b).astype(np.int64) * m + np.maximum(a, b)
+    del a, b
+    edges, inverse = np.unique(key, return_inverse=True)
+    del key
+    inverse = inverse.ravel()
+    C = np.bincount(inverse, weights=c, minlength=len(edges))
+    S = np.bincount(inverse, weights=q, minlength=len(edges))
+    del inverse, c, q
+    lo, hi = edges // m, edges % m
+    D = np.bincount(lo, weights=C, minlength=m) + np.bincount(hi, weights=C, minlength=m)
+    return lo, hi, C, S, D
+
+
+def _apply_form(form: tuple, x: np.ndarray) -> np.ndarray:
+    """The form of :func:`_weighted_form` times ``x = (u, v)`` (2m,): for each edge,
+    ``-C`` between its ends in each block and ``-S`` on ``(u_lo, v_hi)``, ``+S`` on
+    ``(u_hi, v_lo)`` (both ways), ``D`` on the diagonal."""
+    lo, hi, C, S, D = form
+    m = len(D)
+    u, v = x[:m], x[m:]
+    yu = D * u - np.bincount(lo, weights=C * u[hi] + S * v[hi], minlength=m) \
+        - np.bincount(hi, weights=C * u[lo] - S * v[lo], minlength=m)
+    yv = D * v - np.bincount(lo, weights=C * v[hi] - S * u[hi], minlength=m) \
+        - np.bincount(hi, weights=C * v[lo] + S * u[lo], minlength=m)
+    return np.concatenate([yu, yv])
+
+
+def _anticonformal(V: np.ndarray, F: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """How far each triangle's map is from conformal: ``|J_a| / |J_c|``, the anti-conformal
+    over the conformal part of its Jacobian (0 for a similarity, 1 for a degenerate map,
+    above 1 for a turned-over triangle). (M,)"""
+    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
+    n = np.cross(e1, e2)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    x = e1 / np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-300)
+    y = np.cross(n, x)
+    # The triangle in its own plane: p1 = (|e1|, 0), p2 = (e2.x, e2.y); the map's edges.
+    p1, p2x, p2y = np.linalg.norm(e1, axis=1), (e2 * x).sum(axis=1), (e2 * y).sum(axis=1)
+    f1 = np.column_stack([u[F[:, 1]] - u[F[:, 0]], v[F[:, 1]] - v[F[:, 0]]])
+    f2 = np.column_stack([u[F[:, 2]] - u[F[:, 0]], v[F[:, 2]] - v[F[:, 0]]])
+    det = np.maximum(p1 * p2y, 1e-300)
+    # J = [f1 f2] [[p1, p2x], [0, p2y]]^-1
+    j11, j21 = f1[:, 0] / p1, f1[:, 1] / p1
+    j12 = (f2[:, 0] * p1 - f1[:, 0] * p2x) / det
+    j22 = (f2[:, 1] * p1 - f1[:, 1] * p2x) / det
+    conformal = np.hypot(j11 + j22, j21 - j12)
+    anti = np.hypot(j11 - j22, j12 + j21)
+    return anti / np.maximum(conformal, 1e-300)
 
 
 def _principal_pose(U: np.ndarray) -> np.ndarray:
@@ -126,7 +260,9 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
                                        normal_scales=settings.normal_scales,
                                        normal_tolerance=settings.normal_tolerance,
                                        outlier=outlier)
-    uv = lscm_free(Xn, mesh)
+    uv = lscm_free(Xn, mesh, rounds=settings.robust_rounds, scale=settings.robust_scale,
+                   floor=settings.robust_floor)
+    record["robust_rounds"] = settings.robust_rounds
     record["solver"] = solver_name()  # the sparse factorization that ran, and its ordering
     record["ordering"] = ordering_name()
     return uv, mesh, normals, record
