@@ -321,26 +321,23 @@ def robust_figure(path: Path) -> list[dict]:
     print(f"robust weights: {100 * (weights < 0.5).mean():.1f}% of the local mesh's "
           f"{len(F)} triangles below 0.5, {100 * (weights <= settings.robust_floor).mean():.1f}% "
           "at the floor")
-    fig, axes = plt.subplots(3, 1, figsize=(10, 7.5), dpi=DPI, layout="constrained",
-                             sharex=True)
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.6), dpi=DPI, layout="constrained")
     art = axes[0].tripcolor(st[:, 0], st[:, 1], faces, facecolors=weights, cmap="viridis",
                             vmin=0, vmax=1)
-    fig.colorbar(art, ax=axes[0], label="weight")
-    axes[0].set_title("the local mesh's triangles by their weight in the robust round "
-                      "(the folds are the bands)", fontsize=10)
+    fig.colorbar(art, ax=axes[0], label="weight", shrink=0.8)
+    axes[0].set_title("local mesh: weights of the robust round", fontsize=10)
     top = max(float(np.percentile(e[1], 99)) for e in errors.values())
     for ax, (name, (rep, per)) in zip(axes[1:], errors.items()):
         art = ax.tripcolor(st[:, 0], st[:, 1], sheet.faces, facecolors=per, cmap="magma_r",
                            vmin=0, vmax=top)
-        fig.colorbar(art, ax=ax, label="|angle error|, rad")
-        ax.set_title(f"{name}: true triangles by their mean angle error, "
-                     f"{rep.mean_abs:.4f} rad", fontsize=10)
+        ax.set_title(f"{name}: {rep.mean_abs:.4f} rad", fontsize=10)
+    fig.colorbar(art, ax=axes[1:], label="true triangle's mean |angle error|, rad", shrink=0.8)
     for ax in axes:
         ax.set_aspect("equal")
-        ax.set_ylabel("along the folds")
-    axes[-1].set_xlabel("arc length across the folds (the sheet unrolled)")
-    fig.suptitle("A bare pleat, sheets 2.5 spacings apart (6000 points), drawn unrolled",
-                 fontsize=10)
+        ax.set_xlabel("arc length across the folds")
+    axes[0].set_ylabel("along the folds")
+    fig.suptitle("A bare pleat, sheets 2.5 spacings apart (6000 points), drawn unrolled: the "
+                 "folds are the four vertical bands", fontsize=10)
     fig.savefig(path)
     plt.close(fig)
     return [{"name": k, "mean_abs": v[0].mean_abs, "flipped": v[0].flipped}
