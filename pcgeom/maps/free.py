@@ -53,9 +53,10 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
     ``d`` its distortion in the previous solve (:func:`_anticonformal`). Each is solved by
     conjugate gradients preconditioned with the plain system's factor: every triangle's
     energy is positive semi-definite, so ``floor Q <= Q_w <= Q`` and the preconditioned
-    system's condition number is at most ``1 / floor`` (10: about 30 iterations to 1e-10),
-    with no second factor in memory (whose fill would be larger: weights couple u and v
-    along every inner edge, where plain LSCM couples them on the rim only).
+    system's condition number is at most ``1 / floor`` (from the plain solution, 6
+    iterations to 1e-10 on a 300k-point cloud), with no second factor in memory (whose fill
+    would be larger: weights couple u and v along every inner edge, where plain LSCM couples
+    them on the rim only).
 
     Returns
     -------
@@ -95,9 +96,12 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
         flat = np.empty(2 * m)
         flat[fixed] = values
         flat[free] = z
-        weights = np.maximum(1.0 / (1.0 + (_anticonformal(V, F, flat[:m], flat[m:]) / scale)
-                                    ** 2), floor)
+        d = _anticonformal(V, F, flat[:m], flat[m:])
         del flat
+        # A triangle whose distortion is undefined (none on distinct points) gets the floor.
+        weights = np.where(np.isfinite(d), np.maximum(1.0 / (1.0 + (d / scale) ** 2), floor),
+                           floor)
+        del d
         form = _weighted_form(V, F, weights)
         del weights
 
