@@ -128,7 +128,9 @@ default.
 
 What the default gets wrong, and rules measured against it
 ----------------------------------------------------------
-On the bare clouds' ``fast`` maps (normals estimated; loops found, true loops recovered,
+On the bare clouds' ``fast`` maps, plain LSCM (before ``LocalMeshConfig.robust_rounds``;
+with its round face_human_choi gives 28 loops, precision 0.379, the others the same loops:
+BENCHMARKS.md, bench_apps), normals estimated (loops found, true loops recovered,
 precision / recall of boundary points): face_3holes_small_choi 4, 4/4, 0.997 / 0.994;
 face_human_choi 24, 1/1, 0.433 / 1.000; peaks_7holes_choi 3, 2/8, 0.970 / 0.551;
 peaks_three_cgal 2, 1/1, 0.910 / 1.000; the pleat of :func:`pcgeom.synthetic.pleated_sheet`
