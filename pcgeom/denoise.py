@@ -37,7 +37,13 @@ point.
    of the moved points), the true normals would give 0.019 rad; the fitted points' PCA
    normals give 0.063, the fit's own gradient 0.063-0.070, the noisy points' PCA 0.065-0.078,
    larger neighbourhoods more, the noisy mesh's normals 0.142. This, not the fitted heights,
-   is what limits a bare cloud.
+   is what limits a bare cloud. Even perfect landings (each noisy point moved exactly onto
+   the true tangent plane) along the PCA normals of the 16 nearest *clean* points map at
+   0.023 rad there and 0.093 on face_human_choi, whose uneven rows tilt PCA normals by 12
+   degrees at their 90th percentile (the local mesh's vertex normals of the clean points:
+   0.076); from the noisy points, directions plateau at 3.6-4.4 degrees median error (quadric
+   and cubic fits 1.5-4 spacings wide, fitted or noisy points, averaged fields: 0.058-0.082
+   rad on face_3holes_small_choi).
 
 Measured and not kept (face_3holes_small_choi, depth noise 0.5, seeds 0 / 1 / 2; distance of
 the denoised points to the clean mesh in noise std; today's fits: largest 1.11 / 1.46 / 1.33,

@@ -156,6 +156,11 @@ the map crushes them. Measured on the same maps and not kept:
   points to the loop's far side, in spacings): the true holes of peaks_7holes_choi 1.8-2.8,
   the false ones of face_human_choi 0.8-16.6 (among them loops of 824 and 206 points at the
   eyes): they overlap.
+- The 3D circumradius measured in each corner's neighbourhood metric (the inverse square root
+  of its 12 neighbours' covariance in the tangent plane, which makes rows round): face_human_choi
+  32-54 loops, peaks_7holes_choi 1.
+- A crease test on the holes' rims (surface variation, normals' disagreement with the 8
+  nearest): peaks_7holes_choi's true holes score higher than face_human_choi's false ones.
 
 Where loops touch (a non-manifold vertex)
 -----------------------------------------
