@@ -45,7 +45,7 @@ __all__ = ["lscm_free", "conformal_factor", "free_map", "free_start"]
 
 
 def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float = 0.02,
-              floor: float = 0.1) -> np.ndarray:
+              floor: float = 0.1, stats: dict | None = None) -> np.ndarray:
     """Free-boundary LSCM of the mesh's main part; other points interpolated (step 4).
 
     ``rounds`` > 0: that many reweighted solves after the first (step 4's robust rounds):
@@ -56,7 +56,9 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
     system's condition number is at most ``1 / floor`` (from the plain solution, 6
     iterations to 1e-10 on a 300k-point cloud), with no second factor in memory (whose fill
     would be larger: weights couple u and v along every inner edge, where plain LSCM couples
-    them on the rim only).
+    them on the rim only). ``stats``, when given, receives ``downweighted`` (the triangles
+    the last round weighted below 1/2, those the map before it kept furthest from conformal)
+    and ``triangles``.
 
     Returns
     -------
@@ -102,6 +104,8 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
         weights = np.where(np.isfinite(d), np.maximum(1.0 / (1.0 + (d / scale) ** 2), floor),
                            floor)
         del d
+        if stats is not None:
+            stats.update(downweighted=int((weights < 0.5).sum()), triangles=len(F))
         form = _weighted_form(V, F, weights)
         del weights
 
@@ -264,9 +268,12 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
                                        normal_scales=settings.normal_scales,
                                        normal_tolerance=settings.normal_tolerance,
                                        outlier=outlier)
+    robust: dict = {}
     uv = lscm_free(Xn, mesh, rounds=settings.robust_rounds, scale=settings.robust_scale,
-                   floor=settings.robust_floor)
+                   floor=settings.robust_floor, stats=robust)
     record["robust_rounds"] = settings.robust_rounds
+    # Triangles the robust round weighted below 1/2 (None without a round).
+    record["robust_downweighted"] = robust.get("downweighted")
     record["solver"] = solver_name()  # the sparse factorization that ran, and its ordering
     record["ordering"] = ordering_name()
     return uv, mesh, normals, record
