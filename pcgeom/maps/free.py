@@ -38,7 +38,8 @@ from ..errors import InputError
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
 from ._sparse import fill_order, ordering_name, solver_name, spd_factor
-from .localmesh import LocalMesh, _interpolate_rest, _submesh, mesh_cloud, mesh_flips
+from .localmesh import (LocalMesh, _edge_ids, _interpolate_rest, _submesh, mesh_cloud,
+                        mesh_flips)
 from .refine import refine
 
 __all__ = ["lscm_free", "conformal_factor", "free_map", "free_start"]
@@ -94,10 +95,15 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
     del Q_ff
     z = solve(rhs)
     _check_finite(z)
+
+    def whole(z_free):  # all 2m unknowns: the pins' values and the free ones
+        x = np.empty(2 * m)
+        x[fixed] = values
+        x[free] = z_free
+        return x
+
     for _ in range(rounds):
-        flat = np.empty(2 * m)
-        flat[fixed] = values
-        flat[free] = z
+        flat = whole(z)
         d = _anticonformal(V, F, flat[:m], flat[m:])
         del flat
         # A triangle whose distortion is undefined (none on distinct points) gets the floor.
@@ -121,9 +127,7 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
         del form, pinned, rhs
         _check_finite(z)
     del solve, V, F
-    flat = np.empty(2 * m)
-    flat[fixed] = values
-    flat[free] = z
+    flat = whole(z)
     U = np.full((len(X), 2), np.nan)
     U[main] = np.column_stack([flat[:m], flat[m:]])
     return _principal_pose(_interpolate_rest(X, U, mesh.main))
@@ -173,19 +177,19 @@ def _weighted_form(V: np.ndarray, F: np.ndarray, weights: np.ndarray) -> tuple:
     import igl
 
     m = len(V)
-    a = F[:, [1, 2, 0]].ravel()
-    b = F[:, [2, 0, 1]].ravel()  # column k's edge, opposite corner k, as the triangle turns
+    # Column k's edge, opposite corner k, as the triangle turns: (a, b) rows, one array.
+    ab = np.stack([F[:, [1, 2, 0]], F[:, [2, 0, 1]]], axis=-1).reshape(-1, 2)
+    a, b = ab[:, 0], ab[:, 1]
     c = 0.5 * (igl.cotmatrix_entries(V, F) * weights[:, None]).ravel()
     q = np.repeat(0.25 * weights, 3) * np.where(a < b, 1.0, -1.0)
-    key = np.minimum(a, b).astype(np.int64) * m + np.maximum(a, b)
-    del a, b
-    edges, inverse = np.unique(key, return_inverse=True)
-    del key
-    inverse = inverse.ravel()
-    C = np.bincount(inverse, weights=c, minlength=len(edges))
-    S = np.bincount(inverse, weights=q, minlength=len(edges))
+    inverse = _edge_ids(ab)  # each undirected edge once
+    n_edges = int(inverse.max(initial=-1)) + 1
+    lo, hi = np.empty(n_edges, dtype=np.int64), np.empty(n_edges, dtype=np.int64)
+    lo[inverse], hi[inverse] = np.minimum(a, b), np.maximum(a, b)
+    del ab, a, b
+    C = np.bincount(inverse, weights=c, minlength=n_edges)
+    S = np.bincount(inverse, weights=q, minlength=n_edges)
     del inverse, c, q
-    lo, hi = edges // m, edges % m
     D = np.bincount(lo, weights=C, minlength=m) + np.bincount(hi, weights=C, minlength=m)
     return lo, hi, C, S, D
 
