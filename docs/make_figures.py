@@ -233,7 +233,8 @@ def normals_figure(path: Path) -> list[dict]:
     from pcgeom.synthetic import pleated_sheet
 
     fast = get_preset("fast")
-    fixed = dc.replace(fast, local_mesh=dc.replace(fast.local_mesh, normal_scales=(16,)))
+    fixed = dc.replace(fast, local_mesh=dc.replace(fast.local_mesh, normal_scales=(16,),
+                                                   normal_rounds=0))
     rows, shown = [], None
     for gap in (1.5, 2.0, 2.5, 3.0):
         sheet = pleated_sheet(6000, 4, gap)
@@ -344,6 +345,63 @@ def robust_figure(path: Path) -> list[dict]:
             for k, v in errors.items()]
 
 
+def normal_rounds_figure(path: Path) -> list[dict]:
+    """Normal rounds (``LocalMeshConfig.normal_rounds``): a bare pleat whose sheets lie 1.5
+    spacings apart, its map's angle error on the true triangles without and with the rounds
+    (flipped triangles marked), and how many of its own triangles each round's map turns
+    over."""
+    import dataclasses as dc
+
+    from pcgeom.metrics import flipped_mask
+    from pcgeom.synthetic import pleated_sheet
+
+    fast = get_preset("fast")
+    none = dc.replace(fast, local_mesh=dc.replace(fast.local_mesh, normal_rounds=0))
+    sheet = pleated_sheet(6000, 4, 1.5)
+    X, st = sheet.points, sheet.uv_true
+    maps, rows, signed = {}, [], {}
+    for name, config in (("without normal rounds", none), ("with them (default)", fast)):
+        result = parametrize(X, config=config, progress=False)
+        rep = angle_distortion(X, sheet.faces, result.uv)
+        maps[name] = (rep, result.history[0])
+        F, U = sheet.faces, result.uv
+        e1, e2 = U[F[:, 1]] - U[F[:, 0]], U[F[:, 2]] - U[F[:, 0]]
+        signed[name] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        rows.append({"name": name, "mean_abs": rep.mean_abs, "flipped": rep.flipped})
+        print(f"pleat 1.5 spacings, bare, {name}: {rep.mean_abs:.4f} rad, {rep.flipped} of "
+              f"{rep.n_faces} flipped; own flips per round {result.history[0].get('own_flips')}")
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.4), dpi=DPI, layout="constrained",
+                             gridspec_kw={"width_ratios": [1, 1, 0.7]})
+    top = float(np.percentile(maps["without normal rounds"][0].per_corner.mean(axis=1), 95))
+    for ax, (name, (rep, _)) in zip(axes[:2], maps.items()):
+        per = rep.per_corner.mean(axis=1)
+        art = ax.tripcolor(st[:, 0], st[:, 1], sheet.faces, facecolors=per, cmap="magma_r",
+                           vmin=0, vmax=top)
+        flipped = flipped_mask(signed[name])
+        centre = st[sheet.faces[flipped]].mean(axis=1)
+        ax.scatter(centre[:, 0], centre[:, 1], s=4, c="tab:cyan", label="flipped")
+        ax.set_title(f"{name}: {rep.mean_abs:.4f} rad, {100 * rep.flipped / rep.n_faces:.2f}% "
+                     "flipped", fontsize=10)
+        ax.set_aspect("equal")
+        ax.set_xlabel("arc length across the folds")
+    axes[0].set_ylabel("along the folds")
+    fig.colorbar(art, ax=axes[:2], label="true triangle's mean |angle error|, rad", shrink=0.8)
+    flips = maps["with them (default)"][1]["own_flips"]
+    kept = maps["with them (default)"][1]["normal_round_kept"]
+    colours = ["tab:green" if r == kept else "tab:gray" for r in range(len(flips))]
+    axes[2].bar(range(len(flips)), [f if f is not None else 0 for f in flips], color=colours)
+    axes[2].set_yscale("log")
+    axes[2].annotate("kept", (kept, flips[kept]), ha="center", va="bottom", fontsize=9)
+    axes[2].set_xlabel("round (0: the PCA normals)")
+    axes[2].set_ylabel("local-mesh triangles the map turns over")
+    axes[2].set_title("each round's map, on its own mesh", fontsize=10)
+    fig.suptitle("A bare pleat, sheets 1.5 spacings apart (6000 points), drawn unrolled",
+                 fontsize=10)
+    fig.savefig(path)
+    plt.close(fig)
+    return rows
+
+
 def checker_picture(path: Path, data: Path) -> None:
     """The README's reconstructed scan with its checkerboard: the commands the README shows
     (``pcgeom reconstruct`` of face_3holes_small_choi with ``--texture checker:16``), the OBJ
@@ -397,6 +455,7 @@ def main(argv=None) -> int:
         "fig_denoise.png": denoise_figure,
         "fig_normals.png": normals_figure,
         "fig_robust.png": robust_figure,
+        "fig_normal_rounds.png": normal_rounds_figure,
         "fig_checker.png": lambda path: checker_picture(path, Path(args.data)),
     }
     if args.only is not None:

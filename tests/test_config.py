@@ -158,6 +158,12 @@ def test_configs_are_frozen(obj, attr):
          "LocalMeshConfig.robust_floor: expected a number in (0, 1], got 0.0"),
         (lambda: LocalMeshConfig(robust_floor=True),
          "LocalMeshConfig.robust_floor: expected a number in (0, 1], got True"),
+        (lambda: LocalMeshConfig(normal_rounds=-2),
+         "LocalMeshConfig.normal_rounds: expected an int >= 0, got -2"),
+        (lambda: LocalMeshConfig(normal_round_flips=1.0),
+         "LocalMeshConfig.normal_round_flips: expected a number in [0, 1), got 1.0"),
+        (lambda: LocalMeshConfig(normal_round_flips=False),
+         "LocalMeshConfig.normal_round_flips: expected a number in [0, 1), got False"),
         # nested configs must be configs
         (lambda: ParamConfig(schedule={"epochs": 3}),
          "ParamConfig.schedule: expected a ScheduleConfig, got dict"),

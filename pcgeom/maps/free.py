@@ -11,7 +11,13 @@
    weighted by ``max(1 / (1 + (d / s)^2), floor)`` (a Cauchy M-estimator, as in iteratively
    reweighted least squares), ``d`` how far from conformal the previous solve mapped it; the
    floor keeps every triangle in the energy, so none is left free to turn over. Measured in
-   :class:`pcgeom.config.LocalMeshConfig`.
+   :class:`pcgeom.config.LocalMeshConfig`. **Normal rounds** (``LocalMeshConfig.
+   normal_rounds``, a cloud without normals): where a fold bends within a spacing or two,
+   PCA normals lean, the fans there take points of the wrong side of the bend, and the map
+   turns some of the mesh's own triangles over. While it turns over more than
+   ``normal_round_flips`` of them, the mesh's own vertex normals (an angle-weighted average
+   of its triangles, :func:`pcgeom.maps.localmesh.mesh_normals`) replace the normals, and
+   the mesh is built and mapped again; the map that turns over fewest is kept.
 5. **Conformal factor.** ``l_i``, the inverse-lambda of LEG, is set so that LEG's
    ``(l_i + l_j) |u_i - u_j|`` matches ``|x_i - x_j|`` at the point's nearest neighbours.
 
@@ -29,6 +35,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 
 import numpy as np
 import torch
@@ -38,8 +45,10 @@ from ..errors import InputError
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
 from ._sparse import fill_order, ordering_name, solver_name, spd_factor
-from .localmesh import (LocalMesh, _edge_ids, _interpolate_rest, _submesh, mesh_cloud,
-                        mesh_flips)
+from ..cloud import find_outliers
+from ..progress import Progress
+from .localmesh import (MIN_MESHED, LocalMesh, _edge_ids, _interpolate_rest, _submesh,
+                        local_mesh, mesh_cloud, mesh_flips, mesh_normals)
 from .refine import refine
 
 __all__ = ["lscm_free", "conformal_factor", "free_map", "free_start"]
@@ -264,25 +273,94 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
                ) -> tuple[np.ndarray, LocalMesh, np.ndarray, dict]:
     """The local mesh of the cloud (:func:`pcgeom.maps.localmesh.mesh_cloud`; ``outlier``:
     its strays, when already found) and its free LSCM map: where every local-mesh map
-    starts.
+    starts. With estimated normals and a map that turns over more than
+    ``LocalMeshConfig.normal_round_flips`` of its own triangles, the normal rounds follow
+    (step 4 of the module's description).
 
     Returns the map ``(N, 2)``, the mesh, the normals (estimated when ``normals`` is None)
     and the start of the history record."""
     settings = config.local_mesh
+    outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, dtype=bool)
     mesh, normals, record = mesh_cloud(Xn, normals, settings.neighbours,
                                        settings.normal_neighbours, progress=progress,
                                        normal_scales=settings.normal_scales,
                                        normal_tolerance=settings.normal_tolerance,
                                        outlier=outlier)
-    robust: dict = {}
-    uv = lscm_free(Xn, mesh, rounds=settings.robust_rounds, scale=settings.robust_scale,
-                   floor=settings.robust_floor, stats=robust)
+
+    def solve(mesh: LocalMesh) -> tuple[np.ndarray, dict]:
+        stats: dict = {}
+        uv = lscm_free(Xn, mesh, rounds=settings.robust_rounds, scale=settings.robust_scale,
+                       floor=settings.robust_floor, stats=stats)
+        return uv, stats
+
+    uv, robust = solve(mesh)
+    record["normal_rounds"] = 0
+    if record["normals"] == "estimated" and settings.normal_rounds > 0:
+        uv, mesh, normals, robust = _normal_rounds(Xn, (uv, mesh, normals, robust), solve,
+                                                   settings, outlier, record, progress)
     record["robust_rounds"] = settings.robust_rounds
     # Triangles the robust round weighted below 1/2 (None without a round).
     record["robust_downweighted"] = robust.get("downweighted")
     record["solver"] = solver_name()  # the sparse factorization that ran, and its ordering
     record["ordering"] = ordering_name()
     return uv, mesh, normals, record
+
+
+NORMAL_ROUND_PATIENCE = 3
+"""Normal rounds in a row that may turn over no fewer of their own triangles than the best
+map so far before the rounds stop (:attr:`pcgeom.config.LocalMeshConfig.normal_rounds`)."""
+
+
+def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, outlier: np.ndarray,
+                   record: dict, progress: bool) -> tuple:
+    """Step 4's normal rounds: the local mesh rebuilt from its own vertex normals, and mapped again, while
+    its map turns over more than ``settings.normal_round_flips`` of its triangles; the map
+    that turns over fewest is kept (the first on ties).
+
+    ``first`` is ``(uv, mesh, normals, stats)`` of the first map and so is the result;
+    ``record`` receives ``normal_rounds`` (rounds made), ``normal_round_kept`` (0: the first
+    map), ``own_flips`` (each map's count, :func:`pcgeom.maps.localmesh.mesh_flips`) and the
+    kept mesh's ``faces``, ``boundary_edges`` and ``unmeshed``."""
+    best = first
+    counted = mesh_flips(Xn, first[1], first[0])
+    flips, faces = [counted["count"]], counted["faces"]
+    kept, stale, mesh, normals = 0, 0, first[1], first[2]
+    best_said: list = []
+    if flips[0] <= settings.normal_round_flips * max(faces, 1):
+        record.update(normal_rounds=0, normal_round_kept=0, own_flips=flips)
+        return best
+    with Progress(settings.normal_rounds, "normal rounds", enabled=progress,
+                  unit="round") as bar:
+        while (len(flips) <= settings.normal_rounds and stale < NORMAL_ROUND_PATIENCE
+               and flips[kept] > settings.normal_round_flips * max(faces, 1)):
+            normals = mesh_normals(Xn, mesh, normals)
+            mesh = local_mesh(Xn, normals, settings.neighbours, exclude=outlier)
+            # A map's warnings (its solver's) are said only if it is kept.
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always")
+                try:
+                    if mesh.main.mean() < MIN_MESHED or mesh.looks_closed:
+                        raise InputError("not one open surface")
+                    uv, stats = solve(mesh)
+                    counted = mesh_flips(Xn, mesh, uv)
+                except InputError:  # a degenerate mesh: this round counts as no better
+                    counted = {"count": np.iinfo(np.int64).max, "faces": 0}
+            flips.append(counted["count"])
+            bar.update()
+            if flips[-1] < flips[kept]:
+                kept, stale, faces = len(flips) - 1, 0, counted["faces"]
+                best, best_said = (uv, mesh, normals, stats), said
+            else:
+                stale += 1
+    for w in best_said:
+        warnings.warn(w.message, w.category, stacklevel=2)
+    flips = [None if f == np.iinfo(np.int64).max else f for f in flips]
+    record.update(normal_rounds=len(flips) - 1, normal_round_kept=kept, own_flips=flips)
+    if kept:
+        mesh = best[1]
+        record.update(faces=mesh.n_faces, boundary_edges=mesh.boundary_edges,
+                      unmeshed=int((~mesh.main).sum()))
+    return best
 
 
 def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,

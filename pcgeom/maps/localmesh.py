@@ -34,8 +34,8 @@ from ..errors import InputError
 from ..progress import Progress
 from .normals import orient_normals
 
-__all__ = ["LocalMesh", "local_mesh", "mesh_cloud", "mesh_flips", "CLOSED_SURFACE", "MIN_MESHED",
-           "NOT_A_SURFACE"]
+__all__ = ["LocalMesh", "local_mesh", "mesh_cloud", "mesh_flips", "mesh_normals",
+           "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
 
 MIN_MESHED = 0.5
 """The smallest share of the points the local mesh's main part must hold."""
@@ -320,6 +320,40 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     main = _main_part(faces, n)
     boundary = int(_edge_sides(faces)[1].sum())
     return LocalMesh(faces=faces, main=main, boundary_edges=boundary, candidates=n_candidates)
+
+
+def mesh_normals(X: np.ndarray, mesh: LocalMesh, previous: np.ndarray) -> np.ndarray:
+    """The mesh's own vertex normals (libigl's, each triangle weighted by its angle at the
+    vertex) on its main part, turned to the side of ``previous``; ``previous`` elsewhere
+    (points outside the main part, strays, a vertex whose triangles cancel out).
+
+    Parameters
+    ----------
+    X : (N, 3) float64
+        The mesh's points.
+    mesh : LocalMesh
+        Its local mesh.
+    previous : (N, 3) float64
+        The normals it was built from (unit, consistently oriented; strays' rows zero).
+
+    Returns
+    -------
+    (N, 3) float64
+        Unit normals where the mesh gives them, ``previous``'s rows elsewhere.
+    """
+    import igl
+
+    F = np.ascontiguousarray(mesh.faces[mesh.main[mesh.faces].all(axis=1)], dtype=np.int64)
+    out = np.array(previous, dtype=np.float64, copy=True)
+    if len(F) == 0:
+        return out
+    found = igl.per_vertex_normals(np.ascontiguousarray(X, dtype=np.float64), F,
+                                   igl.PER_VERTEX_NORMALS_WEIGHTING_TYPE_ANGLE)
+    length = np.linalg.norm(found, axis=1)
+    ok = mesh.main & np.isfinite(length) & (length > 0.5)
+    side = np.where(np.einsum("nd,nd->n", found, out) < 0, -1.0, 1.0)
+    out[ok] = (found * (side / np.where(ok, length, 1.0))[:, None])[ok]
+    return out
 
 
 def _edge_sides(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
