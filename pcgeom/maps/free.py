@@ -313,9 +313,9 @@ map so far before the rounds stop (:attr:`pcgeom.config.LocalMeshConfig.normal_r
 
 def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, outlier: np.ndarray,
                    record: dict, progress: bool) -> tuple:
-    """Step 4's normal rounds: the local mesh rebuilt from its own vertex normals, and mapped again, while
-    its map turns over more than ``settings.normal_round_flips`` of its triangles; the map
-    that turns over fewest is kept (the first on ties).
+    """Step 4's normal rounds: the local mesh rebuilt from its own vertex normals, and mapped
+    again, while its map turns over more than ``settings.normal_round_flips`` of its
+    triangles; the map that turns over fewest is kept (the first on ties).
 
     ``first`` is ``(uv, mesh, normals, stats)`` of the first map and so is the result;
     ``record`` receives ``normal_rounds`` (rounds made), ``normal_round_kept`` (0: the first
