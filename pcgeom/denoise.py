@@ -61,6 +61,18 @@ bias), those on the rim are one-sided fits.
   maps (judged on the clean mesh, seed 0) face_3holes_small_choi 0.0635 -> 0.0611 rad at depth
   0.5 and 0.0267 -> 0.0269 at 0.25, face_human_choi 0.2350 -> 0.2311 and 0.1183 -> 0.1022;
   with 32 neighbours' fits 0.0614, 0.0273, 0.2339, 0.1178: no consistent gain.
+- Twicing (the fit applied again to the fitted points and its change taken back, ``2 S(X) -
+  S(S(X))``, which cancels most of a fit's bias): largest 1.34 / 1.48 / 1.51 at width 3 (mean
+  0.269), 1.29-1.56 at widths 4-6: the bias it removes comes back as noise.
+- Wider fits that keep all their points (widths 3 / 4 / 5 over 200 / 300 / 400 neighbours
+  instead of 96): largest 1.46-1.66 / 1.74-2.15 / 2.63-2.91, mean 0.23 / 0.26 / 0.34: the
+  face's curvature. The fit's bias alone (today's fits applied to the clean points) reaches
+  0.71 std at the sharpest points (99th percentile 0.38).
+- A noisy plane sampled like it (a jittered grid of 5041 points, noise 0.5 spacings), so no
+  curvature at all: largest 1.09 / 1.38 / 0.97 at width 3, every one on the rim (inside 0.78 /
+  0.65 / 0.68), 0.93 / 0.99 / 0.71 at width 5. The rim's one-sided fits alone reach the
+  noise's standard deviation: a largest distance below it (BENCHMARKS.md's reconstruction
+  target) is out of reach of fits of this kind on a 5000-point scan.
 
 pymeshlab's MLS projections (``compute_mls_projection_apss`` and ``_rimls``, pymeshlab
 2025.7.post1) were to be measured against this: both crash the interpreter (segmentation
