@@ -458,3 +458,18 @@ def test_normal_rounds_mend_a_bare_pleat_whose_sheets_nearly_touch():
     record = parametrize(sheet.points, config=fast, progress=False,
                          normals=sheet.normals).history[0]
     assert record["normal_rounds"] == 0 and "own_flips" not in record
+
+
+def test_a_local_mesh_without_a_unique_lscm_map_is_a_clear_input_error():
+    """Two triangles that share one corner only (a bowtie): the half away from the pins may
+    turn and scale freely, the system is singular, and the run says so in one line (whatever
+    the sparse solver) instead of a solver's traceback."""
+    from pcgeom.maps.free import DEGENERATE
+    from pcgeom.maps.localmesh import LocalMesh
+
+    X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0.3], [0, -1, 0.2]])
+    faces = np.array([[0, 1, 2], [0, 3, 4]])
+    mesh = LocalMesh(faces=faces, main=np.ones(5, dtype=bool), boundary_edges=6, candidates=2)
+    with pytest.raises(InputError) as caught:
+        lscm_free(X, mesh)
+    assert str(caught.value) == DEGENERATE

@@ -100,7 +100,10 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
     unknown[free] = np.arange(len(free))
     order = fill_order(L, unknown.reshape(2, m).T)
     del L, unknown
-    solve = spd_factor(Q_ff, order=order)
+    try:
+        solve = spd_factor(Q_ff, order=order)
+    except RuntimeError as err:  # SuperLU on a singular system: no unique map either
+        raise InputError(DEGENERATE) from err
     del Q_ff
     z = solve(rhs)
     _check_finite(z)
@@ -142,10 +145,14 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
     return _principal_pose(_interpolate_rest(X, U, mesh.main))
 
 
+DEGENERATE = ("the local mesh of the cloud is degenerate (LSCM has no unique solution); try "
+              "more neighbours or the 'networks' preset")
+"""The message of the :class:`InputError` for a local mesh whose LSCM system is singular."""
+
+
 def _check_finite(z: np.ndarray) -> None:
     if not np.isfinite(z).all():
-        raise InputError("the local mesh of the cloud is degenerate (LSCM has no unique "
-                         "solution); try more neighbours or the 'networks' preset")
+        raise InputError(DEGENERATE)
 
 
 def _preconditioned_cg(apply, b: np.ndarray, solve, x0: np.ndarray, rtol: float = 1e-9,
