@@ -290,16 +290,18 @@ class LocalMeshConfig:
     :attr:`normal_round_flips` of the local mesh's own triangles, the mesh's vertex normals
     (each triangle weighted by its angle there) replace the estimated ones, the mesh is built
     again from them and mapped again; the map that turns over fewest is kept, and the rounds
-    stop after three in a row that do no better. A mesh's normals average its triangles around
+    stop at the first that does no better. A mesh's normals average its triangles around
     the point, which PCA normals at a fold's bend (a spacing or two in radius) do not: on the
     pleat of :func:`pcgeom.synthetic.pleated_sheet` with sheets 1.5 spacings apart, 90th
     percentile normal error 21.5 -> 11.1 -> 9.9 degrees over two rounds (seed 0). Measured
     (bare, ``fast``, on the true triangles): that pleat, seeds 0-3, 0.2977 / 0.3246 / 0.2801
-    / 0.3296 rad, 3.23 / 4.51 / 4.18 / 4.01% flipped -> 0.0297 / 0.0519 / 0.0398 / 0.0317 rad,
-    0.09 / 0.37 / 0.37 / 0.29% (5-6 rounds); face_human_choi 0.0342 -> 0.0302 rad, 2.59% ->
-    2.37% flipped (6 rounds: 5.1 s instead of 1.0). A map that turns over none (pleats 2
-    spacings apart and more, every height field, face_3holes_small_choi, peaks_7holes_choi)
-    runs none, and there the rounds would not help: forced on the pleats 2-3 spacings apart,
+    / 0.3296 rad, 3.23 / 4.51 / 4.18 / 4.01% flipped -> 0.0297 / 0.0933 / 0.0398 / 0.0393 rad,
+    0.09 / 0.70 / 0.37 / 0.29% (4-6 rounds); face_human_choi 0.0342 -> 0.0332 rad, 2.59% ->
+    2.54% flipped (2 rounds: 2.9 s instead of 1.0). Going on after a round that does no
+    better finds more at times (that pleat, seed 1: 0.0519 rad, 0.37% after 6 rounds;
+    face_human_choi 0.0302, 2.37% after 6 rounds, 5.1 s). A map that turns over none (pleats
+    2 spacings apart and more, every height field, face_3holes_small_choi,
+    peaks_7holes_choi) runs none, and there the rounds would not help: forced on the pleats 2-3 spacings apart,
     0.0124-0.0137 rad where the first map has 0.0096-0.0106.
     0: none."""
     normal_round_flips: float = 0.001

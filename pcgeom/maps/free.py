@@ -313,7 +313,7 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     return uv, mesh, normals, record
 
 
-NORMAL_ROUND_PATIENCE = 3
+NORMAL_ROUND_PATIENCE = 1
 """Normal rounds in a row that may turn over no fewer of their own triangles than the best
 map so far before the rounds stop (:attr:`pcgeom.config.LocalMeshConfig.normal_rounds`)."""
 
