@@ -301,8 +301,8 @@ class LocalMeshConfig:
     better finds more at times (that pleat, seed 1: 0.0519 rad, 0.37% after 6 rounds;
     face_human_choi 0.0302, 2.37% after 6 rounds, 5.1 s). A map that turns over none (pleats
     2 spacings apart and more, every height field, face_3holes_small_choi,
-    peaks_7holes_choi) runs none, and there the rounds would not help: forced on the pleats 2-3 spacings apart,
-    0.0124-0.0137 rad where the first map has 0.0096-0.0106.
+    peaks_7holes_choi) runs none, and there the rounds would not help: forced on the pleats
+    2-3 spacings apart, 0.0124-0.0137 rad where the first map has 0.0096-0.0106.
     0: none."""
     normal_round_flips: float = 0.001
     """The share of its own triangles (:func:`pcgeom.maps.localmesh.mesh_flips`) the free map
