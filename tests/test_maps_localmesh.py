@@ -473,3 +473,21 @@ def test_a_local_mesh_without_a_unique_lscm_map_is_a_clear_input_error():
     with pytest.raises(InputError) as caught:
         lscm_free(X, mesh)
     assert str(caught.value) == DEGENERATE
+
+
+def test_main_part_is_joined_through_edges_not_corners():
+    """Triangles that touch the rest at one corner only are not in the main part (LSCM could
+    turn and scale them about that corner); the points they alone hold are left to the
+    interpolation of the rest, near their neighbours."""
+    from pcgeom.maps.localmesh import LocalMesh, _main_part
+
+    # A strip of four triangles, and one triangle hanging from its corner 5.
+    X = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [1, 1, 0], [2, 1, 0],
+                  [2.6, 1.8, 0.1], [3.0, 1.2, 0.1]])
+    F = np.array([[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4], [5, 6, 7]])
+    main = _main_part(F, len(X))
+    np.testing.assert_array_equal(main, [True] * 6 + [False, False])
+    U = lscm_free(X, LocalMesh(faces=F, main=main, boundary_edges=8, candidates=5))
+    assert np.isfinite(U).all()
+    scale = np.linalg.norm(U[1] - U[0])
+    assert np.linalg.norm(U[6:] - U[5], axis=1).max() < 2 * scale
