@@ -119,6 +119,30 @@ def test_lift_inside_is_barycentric_and_outside_takes_the_nearest_edge_point():
     np.testing.assert_allclose(V[3], P[0])  # nearest: the corner
 
 
+def test_lift_finds_triangles_where_matplotlibs_trifinder_refuses_them(monkeypatch):
+    """matplotlib's trapezoid map refuses some valid triangulations ('Triangulation is
+    invalid'); the map's own Delaunay triangles are then located through scipy's, with the
+    same lifted points, and triangles that are not the map's are a one-line error."""
+    import matplotlib.tri as mtri
+
+    P, F0 = peaks_surface("peaks3", n_side=20)
+    U = lscm(P, F0)
+    found = detect_boundary(U)
+    Q = np.random.default_rng(1).uniform(U.min(axis=0) - 0.05, U.max(axis=0) + 0.05,
+                                         size=(500, 2))
+    want = lift(P, U, found.triangles, Q)
+
+    def refuse(self):
+        raise RuntimeError("Triangulation is invalid")
+
+    monkeypatch.setattr(mtri.Triangulation, "get_trifinder", refuse)
+    got = lift(P, U, found.triangles, Q)
+    np.testing.assert_array_equal(got[1], want[1])
+    np.testing.assert_allclose(got[0], want[0], atol=1e-12)
+    with pytest.raises(InputError, match="not all triangles of the map's Delaunay"):
+        lift(P, U, np.array([[0, 1, 25]]), Q)
+
+
 # --------------------------------------------------------------------------- curved surfaces
 
 

@@ -45,7 +45,6 @@ def lift(points, U, triangles, Q) -> tuple[np.ndarray, np.ndarray]:
         Points in no triangle, lifted from the nearest point of the triangles' boundary
         edges (module docstring).
     """
-    import matplotlib.tri as mtri
     from scipy.spatial import cKDTree
 
     P = np.asarray(points, dtype=np.float64)
@@ -59,10 +58,7 @@ def lift(points, U, triangles, Q) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(f"Q: expected shape (K, 2), got {Q.shape}")
     if len(T) == 0:
         raise InputError("triangles: none; the reconstruction would be empty")
-    used, local = np.unique(T, return_inverse=True)
-    local = local.reshape(-1, 3)
-    tri = mtri.Triangulation(U[used, 0], U[used, 1], local)
-    found = np.asarray(tri.get_trifinder()(Q[:, 0], Q[:, 1]), dtype=np.int64)  # -1: outside
+    found = _locate(U, T, Q)  # -1: outside
     V = np.empty((len(Q), 3))
     inside = found >= 0
     t = T[found[inside]]  # (k, 3)
@@ -97,6 +93,45 @@ def lift(points, U, triangles, Q) -> tuple[np.ndarray, np.ndarray]:
         s = s[np.arange(len(cand)), best][:, None]
         V[outside] = (1.0 - s) * P[E[e, 0]] + s * P[E[e, 1]]
     return V, outside
+
+
+def _locate(U: np.ndarray, T: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """For each point of ``Q`` the row of ``T`` whose triangle in the map ``U`` holds it, -1
+    for none. (K,) int64
+
+    matplotlib's trapezoid map finds them; it refuses some valid triangulations (measured: a
+    map with two points a thousand map widths away, 'Triangulation is invalid'). Then, when
+    every triangle is one of the map's Delaunay triangles (those of :func:`map_delaunay` and
+    of boundary detection are), scipy's Delaunay point location finds them."""
+    import matplotlib.tri as mtri
+
+    used, local = np.unique(T, return_inverse=True)
+    try:
+        tri = mtri.Triangulation(U[used, 0], U[used, 1], local.reshape(-1, 3))
+        return np.asarray(tri.get_trifinder()(Q[:, 0], Q[:, 1]), dtype=np.int64)
+    except RuntimeError:
+        pass
+    from scipy.spatial import Delaunay
+
+    unique, row = _distinct_points(U)
+    delaunay = Delaunay(unique)
+    n = len(U)
+
+    def keys(A):  # one integer per triangle of rows, whatever its corners' order
+        A = np.sort(A, axis=1)
+        return (A[:, 0] * n + A[:, 1]) * n + A[:, 2]
+
+    ours, theirs = keys(T), keys(row[delaunay.simplices])
+    order = np.argsort(ours)
+    at = np.searchsorted(ours[order], theirs)
+    hit = (at < len(ours)) & (ours[order][np.minimum(at, len(ours) - 1)] == theirs)
+    if hit.sum() < len(np.unique(ours)):
+        raise InputError("triangles: the map's points cannot be located in them (they are "
+                         "not all triangles of the map's Delaunay triangulation, and "
+                         "matplotlib refused them)")
+    of_simplex = np.where(hit, order[np.minimum(at, len(ours) - 1)], -1)
+    simplex = delaunay.find_simplex(Q)
+    return np.where(simplex >= 0, of_simplex[simplex], -1).astype(np.int64)
 
 
 def map_delaunay(U) -> np.ndarray:
