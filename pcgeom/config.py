@@ -294,12 +294,12 @@ class LocalMeshConfig:
     the point, which PCA normals at a fold's bend (a spacing or two in radius) do not: on the
     pleat of :func:`pcgeom.synthetic.pleated_sheet` with sheets 1.5 spacings apart, 90th
     percentile normal error 21.5 -> 11.1 -> 9.9 degrees over two rounds (seed 0). Measured
-    (bare, ``fast``, on the true triangles): that pleat, seeds 0-3, 0.2977 / 0.3246 / 0.2801
-    / 0.3296 rad, 3.23 / 4.51 / 4.18 / 4.01% flipped -> 0.0297 / 0.0933 / 0.0398 / 0.0393 rad,
-    0.09 / 0.70 / 0.37 / 0.29% (4-6 rounds); face_human_choi 0.0342 -> 0.0332 rad, 2.59% ->
-    2.54% flipped (2 rounds: 2.9 s instead of 1.0). Going on after a round that does no
-    better finds more at times (that pleat, seed 1: 0.0519 rad, 0.37% after 6 rounds;
-    face_human_choi 0.0302, 2.37% after 6 rounds, 5.1 s). A map that turns over none (pleats
+    (bare, ``fast``, on the true triangles): that pleat, seeds 0-3, 0.2718 / 0.3243 / 0.2886
+    / 0.2971 rad, 3.10 / 4.46 / 4.11 / 3.02% flipped -> 0.0525 / 0.0878 / 0.0417 / 0.0381 rad,
+    0.27 / 0.77 / 0.74 / 0.33% (3-4 rounds); face_human_choi 0.0341 -> 0.0331 rad, 2.58% ->
+    2.51% flipped (2 rounds: 2.5 s instead of 1.1). Going on after a round that does no
+    better finds more at times (that pleat, seed 1: 0.0579 rad, 0.47% after 6 rounds;
+    face_human_choi 0.0312, 2.41% after 3 rounds, 3.0 s). A map that turns over none (pleats
     2 spacings apart and more, every height field, face_3holes_small_choi,
     peaks_7holes_choi) runs none, and there the rounds would not help: forced on the pleats
     2-3 spacings apart, 0.0124-0.0137 rad where the first map has 0.0096-0.0106.
