@@ -40,13 +40,13 @@ import warnings
 import numpy as np
 import torch
 
+from ..cloud import find_outliers
 from ..config import ParamConfig
 from ..errors import InputError
+from ..progress import Progress
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
 from ._sparse import fill_order, ordering_name, solver_name, spd_factor
-from ..cloud import find_outliers
-from ..progress import Progress
 from .localmesh import (MIN_MESHED, LocalMesh, _edge_ids, _interpolate_rest, _submesh,
                         local_mesh, mesh_cloud, mesh_flips, mesh_normals)
 from .refine import refine
