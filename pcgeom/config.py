@@ -273,8 +273,9 @@ class LocalMeshConfig:
     peaks_three_cgal 0.0474 -> 0.0413, peaks_7holes_choi 0.0327 -> 0.0296, peaks3 0.0079 ->
     0.0070, face_3holes_small_choi 0.0107 -> 0.0103 (flips unchanged); the pleat at 1.5
     spacings, whose local mesh bridges its sheets, stays broken (0.2969 -> 0.2977 rad, 380 ->
-    388 flipped; :attr:`normal_rounds` rebuild that mesh). A second round gains little (0.0097, 0.0097, 0.0100, 0.0340, 0.0398, 0.0292)
-    for one more preconditioned conjugate-gradient solve."""
+    388 flipped; :attr:`normal_rounds` rebuild that mesh). A second round gains little
+    (0.0097, 0.0097, 0.0100, 0.0340, 0.0398, 0.0292) for one more preconditioned
+    conjugate-gradient solve."""
     robust_scale: float = 0.02
     """The distortion ``d`` at which a triangle's weight halves (:attr:`robust_rounds`):
     0.02, an angle off by about 0.04 rad. 0.01 / 0.05 (3 rounds): the pleat at 2 spacings

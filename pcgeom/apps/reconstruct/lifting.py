@@ -113,15 +113,11 @@ def _locate(U: np.ndarray, T: np.ndarray, Q: np.ndarray) -> np.ndarray:
         pass
     from scipy.spatial import Delaunay
 
+    from ...maps.localmesh import _face_keys
+
     unique, row = _distinct_points(U)
     delaunay = Delaunay(unique)
-    n = len(U)
-
-    def keys(A):  # one integer per triangle of rows, whatever its corners' order
-        A = np.sort(A, axis=1)
-        return (A[:, 0] * n + A[:, 1]) * n + A[:, 2]
-
-    ours, theirs = keys(T), keys(row[delaunay.simplices])
+    ours, theirs = _face_keys(T, len(U)), _face_keys(row[delaunay.simplices], len(U))
     order = np.argsort(ours)
     at = np.searchsorted(ours[order], theirs)
     hit = (at < len(ours)) & (ours[order][np.minimum(at, len(ours) - 1)] == theirs)
