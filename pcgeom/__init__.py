@@ -4,7 +4,7 @@ The public API::
 
     import pcgeom
     cloud = pcgeom.read_points("scan.ply")
-    result = pcgeom.parametrize(cloud.points, "disk", config=pcgeom.get_preset("fast"))
+    result = pcgeom.parametrize(cloud, "disk", config=pcgeom.get_preset("fast"))
     result.save("scan_uv.npz")
     again = pcgeom.ParamResult.load("scan_uv.npz")
 """

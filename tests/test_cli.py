@@ -250,7 +250,7 @@ def test_example_peaks3_writes_map(tmp_path, monkeypatch, capsys, tiny):
     with np.load(tmp_path / "peaks3_uv.npz", allow_pickle=False) as z:
         assert sorted(z.files) == ["center", "config_json", "denoise_json", "domain_json",
                                    "faces", "fingerprint", "history_json", "lambda_inv",
-                                   "scale", "seconds", "seed", "uv", "version"]
+                                   "mesh_faces", "scale", "seconds", "seed", "uv", "version"]
         uv, lam = z["uv"], z["lambda_inv"]
         assert uv.shape == (len(V), 2) and uv.dtype == np.float64
         assert np.isfinite(uv).all() and uv.std(axis=0).min() > 1e-3  # not collapsed

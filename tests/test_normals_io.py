@@ -13,7 +13,12 @@ import re
 import numpy as np
 import pytest
 
+import pcgeom.maps.run as run_module
+from pcgeom import parametrize
+from pcgeom.examples import peaks_surface
 from pcgeom.io import InputError, PointCloud, read_points, save_npz_atomic, write_ply_atomic
+
+from tests.helpers import tiny_preset
 
 
 def _cloud() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -62,7 +67,33 @@ def test_point_cloud_normals_is_the_last_field_and_defaults_to_none():
     assert [f.name for f in dataclasses.fields(PointCloud)] == [
         "points", "faces", "source", "normals"]
     assert PointCloud(V, None, "a.ply").normals is None  # positional constructors still work
-    assert PointCloud(V, None, "a.ply", normals=N).normals is N
+    np.testing.assert_allclose(PointCloud(V, None, "a.ply", normals=N).normals,
+                               N / np.linalg.norm(N, axis=1, keepdims=True), rtol=0, atol=1e-15)
+
+
+def test_point_cloud_is_checked_when_built_and_parametrize_takes_it_as_it_is(monkeypatch):
+    """A PointCloud is checked once, when built (messages name its source); parametrize takes
+    one without checking it again and gives the map of its points and normals."""
+    V, _, N = _cloud()
+    with pytest.raises(InputError, match=r"^a\.ply: 3 points, need at least 10$"):
+        PointCloud(V[:3], None, "a.ply")
+    with pytest.raises(InputError, match=r"^a\.ply: faces reference vertex indices 0\.\.30 "
+                                         r"but there are 30 points$"):
+        PointCloud(V, np.array([[0, 1, 30]]), "a.ply")
+    with pytest.raises(InputError, match=r"^a\.ply: 29 normals for 30 points$"):
+        PointCloud(V, None, "a.ply", N[:-1])
+    with pytest.raises(InputError, match=r"^a\.ply: 9 points, need at least 10$"):
+        PointCloud(V[:9], None, "a.ply", min_points=10)
+    assert len(PointCloud(V[:9], None, "a.ply", min_points=4).points) == 9
+    peaks, _ = peaks_surface("peaks3", n_side=16)
+    normals = np.tile([0.0, 0.0, 2.0], (len(peaks), 1))
+    cloud = PointCloud(peaks, None, "peaks", normals)
+    config = tiny_preset("fast")
+    from_arrays = parametrize(peaks, config=config, normals=normals, progress=False)
+    monkeypatch.setattr(run_module, "validate_points", lambda *a, **k: pytest.fail("checked"))
+    from_cloud = parametrize(cloud, config=config, progress=False)
+    np.testing.assert_array_equal(from_cloud.uv, from_arrays.uv)
+    assert from_cloud.history[0]["normals"] == "input"
 
 
 # --------------------------------------------------------------------------- PLY

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import pcgeom.apps.texture as texture
 import pcgeom.cli.param as param_command
 from pcgeom import InputError, ParamResult, cli, parametrize
 from pcgeom.apps.plot import plot_checker
@@ -117,6 +118,34 @@ def test_map_mesh_of_a_bare_cloud_is_the_local_mesh_its_map_was_built_on():
     assert (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] > 0).all()
 
 
+def test_the_result_keeps_the_local_mesh_so_nothing_is_rebuilt(tmp_path):
+    """ParamResult.mesh_faces: the main part of the map's local mesh as input rows (here the
+    mesh rebuilt from the same points and settings, as no normal round ran), saved and
+    loaded; map_mesh takes it as it is; a file written before it existed loads without it."""
+    V, _ = peaks_surface("peaks3", n_side=24)
+    P = np.vstack([V, V[:5]])  # duplicates: the first row stands for each
+    result = parametrize(P, "free", config=tiny_preset("fast"), progress=False)
+    assert result.mesh_faces.dtype == np.int64 and result.mesh_faces.shape[1] == 3
+    assert (result.mesh_faces < len(V)).all()
+    rebuilt = map_mesh(P, result.uv, config=result.config)
+    kept = map_mesh(P, result.uv, mesh_faces=result.mesh_faces)
+    assert kept.source == "local mesh"
+    np.testing.assert_array_equal(kept.rows, rebuilt.rows)
+    np.testing.assert_array_equal(kept.faces, rebuilt.faces)
+    path = result.save(tmp_path / "map.npz")
+    np.testing.assert_array_equal(ParamResult.load(path).mesh_faces, result.mesh_faces)
+    with np.load(path) as archive:
+        old = {k: archive[k] for k in archive.files if k != "mesh_faces"}
+    np.savez(tmp_path / "old.npz", **old)
+    assert ParamResult.load(tmp_path / "old.npz").mesh_faces is None
+    np.savez(tmp_path / "bad.npz", **old, mesh_faces=result.mesh_faces + len(P))
+    with pytest.raises(InputError, match=r"bad\.npz: mesh_faces: faces reference vertex "
+                                         r"indices \d+\.\.\d+ but there are 581 points"):
+        ParamResult.load(tmp_path / "bad.npz")
+    with pytest.raises(InputError, match="^mesh_faces: faces reference vertex indices"):
+        map_mesh(P, result.uv, mesh_faces=result.mesh_faces + len(P))
+
+
 # --------------------------------------------------------------------------- pcgeom param
 
 
@@ -155,7 +184,11 @@ def test_param_out_mesh_of_a_mesh_input_carries_the_map(tmp_path, capsys, tiny):
     assert "map_Kd peaks_uv_checker.png" in (tmp_path / "peaks_uv.mtl").read_text()
 
 
-def test_param_out_mesh_of_a_bare_cloud_is_its_local_mesh_and_says_so(tmp_path, capsys, tiny):
+def test_param_out_mesh_of_a_bare_cloud_is_its_local_mesh_and_says_so(tmp_path, capsys, tiny,
+                                                                       monkeypatch):
+    # The map file keeps the local mesh: --out-mesh writes it, rebuilding nothing.
+    monkeypatch.setattr(texture, "_local_mesh_faces",
+                        lambda *args: pytest.fail("the local mesh was rebuilt"))
     V, _ = peaks_surface("peaks3", n_side=24)
     src = tmp_path / "cloud.xyz"
     np.savetxt(src, V)
@@ -170,7 +203,7 @@ def test_param_out_mesh_of_a_bare_cloud_is_its_local_mesh_and_says_so(tmp_path, 
     assert "  texture coordinates: uv = (p - (" in captured.out
     result = ParamResult.load(tmp_path / "cloud_uv.npz")
     loaded = trimesh.load(out, process=False)
-    assert len(loaded.faces) == result.history[0]["faces"]
+    assert len(loaded.faces) == result.history[0]["faces"] == len(result.mesh_faces)
     rows = np.array([np.flatnonzero((read_points(src).points == v).all(axis=1))[0]
                      for v in loaded.vertices])
     scaling = uv_scaling(result.uv[rows])

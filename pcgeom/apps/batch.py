@@ -242,10 +242,11 @@ def _train(job: dict, cloud, config, domain, paths) -> tuple[ParamResult, bool]:
     ckpt = paths["checkpoint"]
     ckpt.parent.mkdir(exist_ok=True)
     resumed = ckpt.is_file()
+    # The cloud as read (checked once, by read_points), with its normals.
     settings = dict(config=config, seed=job["seed"], device=job["device"], checkpoint=ckpt,
-                    normals=cloud.normals, progress=False)
+                    progress=False)
     try:
-        result = parametrize(cloud.points, domain, resume=resumed, **settings)
+        result = parametrize(cloud, domain, resume=resumed, **settings)
     except InputError:
         if not resumed:
             raise
@@ -253,7 +254,7 @@ def _train(job: dict, cloud, config, domain, paths) -> tuple[ParamResult, bool]:
         # that is not the checkpoint's comes back from the second call.
         ckpt.unlink(missing_ok=True)
         resumed = False
-        result = parametrize(cloud.points, domain, resume=False, **settings)
+        result = parametrize(cloud, domain, resume=False, **settings)
     return result, resumed
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..cloud import deduplicate, normalize, validate_faces, validate_normals, validate_points
 from ..errors import InputError
+from ..io.points import PointCloud
 
 __all__ = ["UVScaling", "uv_scaling", "Texture", "parse_texture", "TEXTURES", "CHECKER_SQUARES",
            "CHECKER_MAX_SQUARES", "CHECKER_COLOURS", "checker_image", "checker_parity",
@@ -185,25 +186,31 @@ class MapMesh:
         return self.n_input - len(self.rows)
 
 
-def map_mesh(points, U, faces=None, *, config=None, normals=None,
+def map_mesh(points, U, faces=None, *, mesh_faces=None, config=None, normals=None,
              progress: bool = False) -> MapMesh:
     """The triangle mesh that carries the map ``U`` of ``points``: the input's own ``faces``
     when it has them, else the cloud's local mesh (the triangles of the local-mesh maps,
-    :func:`pcgeom.maps.localmesh.mesh_cloud`, largest connected part), rebuilt from the points
-    and the same settings, so the same mesh the map was built on.
+    :func:`pcgeom.maps.localmesh.mesh_cloud`, largest connected part): the one the map kept
+    (``mesh_faces``), or else rebuilt from the points and the same settings.
 
     Vertices that no triangle uses are left out (a reader such as trimesh drops them anyway).
 
     Parameters
     ----------
-    points : (N, 3) array_like
+    points : (N, 3) array_like, or PointCloud
+        A :class:`pcgeom.io.PointCloud` was checked when it was built and is not checked
+        again; its normals stand for ``normals`` when that is None (its faces are not used:
+        pass them as ``faces``).
     U : (N, 2) array_like
         Its map (``ParamResult.uv``).
     faces : (M, 3) array_like of int, optional
         The input's triangles.
+    mesh_faces : (M, 3) array_like of int, optional
+        The local mesh the map was built on (``ParamResult.mesh_faces``), when there are no
+        ``faces``: nothing is rebuilt.
     config : ParamConfig, optional
-        The map's config (``ParamResult.config``); its ``local_mesh`` settings build the
-        local mesh. Default: the ``fast`` preset.
+        The map's config (``ParamResult.config``); its ``local_mesh`` settings rebuild the
+        local mesh (without ``faces`` and ``mesh_faces``). Default: the ``fast`` preset.
     normals : (N, 3) array_like, optional
         The normals the map was made with (the input's), else estimated as the map did.
     progress : bool
@@ -218,13 +225,20 @@ def map_mesh(points, U, faces=None, *, config=None, normals=None,
     InputError
         Bad shapes or faces; a cloud that has no local mesh (as for the map itself).
     """
-    P = validate_points(points, name="points")
+    if isinstance(points, PointCloud):  # checked when it was built
+        P = points.points
+        normals = points.normals if normals is None else normals
+    else:
+        P = validate_points(points, name="points")
     U = np.asarray(U, dtype=np.float64)
     if U.shape != (len(P), 2):
         raise InputError(f"U: expected shape ({len(P)}, 2) (one row per point), got {U.shape}")
     if faces is not None:
         F = validate_faces(faces, len(P), name="faces", allow_empty=False)
         source = "input"
+    elif mesh_faces is not None:
+        F = validate_faces(mesh_faces, len(P), name="mesh_faces", allow_empty=False)
+        source = "local mesh"
     else:
         F = _local_mesh_faces(P, config, normals, progress)
         source = "local mesh"

@@ -19,12 +19,11 @@ import torch
 from ..apps.evaluate import map_report
 from ..apps.reconstruct import check_mesh_path, texture_paths, write_mesh
 from ..apps.texture import map_mesh, uv_scaling
-from ..cloud import validate_points
 from ..config import PRESETS, get_preset, with_denoise
 from ..domains import DOMAINS, PolygonDomain, get_domain
 from ..errors import InputError
 from ..examples import EXAMPLES, load_example
-from ..io import check_writable, read_landmarks, read_points, write_ply_atomic
+from ..io import PointCloud, check_writable, read_landmarks, read_points, write_ply_atomic
 from ..maps import parametrize
 from ..train import LOSS_TERMS, resolve_device
 from ._common import (EXIT_OK, add_denoise_option, add_texture_option, distinct_paths,
@@ -123,18 +122,16 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.set_defaults(run=run)
 
 
-def _load_input(args) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, str, Path]:
-    """Points, faces, normals, a display name and the default output path, from INPUT or
-    --example."""
+def _load_input(args) -> tuple[PointCloud, Path]:
+    """The cloud (points, faces, normals, checked once, here) and the default output path,
+    from INPUT or --example."""
     if (args.input is None) == (args.example is None):
         raise InputError("give exactly one of INPUT or --example NAME")
     if args.example is not None:
         V, F = load_example(args.example)  # ValueError for an unknown name
-        V = validate_points(V, name=args.example)
-        return V, F, None, args.example, Path(f"{args.example}_uv.npz")
-    cloud = read_points(args.input, normals=args.normals == "auto")
+        return PointCloud(V, F, args.example), Path(f"{args.example}_uv.npz")
     src = Path(args.input)
-    return (cloud.points, cloud.faces, cloud.normals, args.input,
+    return (read_points(args.input, normals=args.normals == "auto"),
             src.with_name(f"{src.stem}_uv.npz"))
 
 
@@ -167,15 +164,16 @@ def _check_outputs(args, default_out: Path) -> dict[str, Path | None]:
     return outs
 
 
-def _write_mesh(args, outs, points, faces, normals, result) -> dict | None:
-    """``--out-mesh``: the input's mesh (or a bare cloud's local mesh) with the map as its
-    texture coordinates; the summary's ``mesh`` object (None without ``--out-mesh``)."""
+def _write_mesh(args, outs, cloud: PointCloud, result) -> dict | None:
+    """``--out-mesh``: the input's mesh (or a bare cloud's local mesh, the one the map kept)
+    with the map as its texture coordinates; the summary's ``mesh`` object (None without
+    ``--out-mesh``)."""
     if outs["out_mesh"] is None:
         return None
     # A denoised map was made of the fitted points: its mesh is theirs.
-    fitted = result.fitted if result.fitted is not None else points
-    mesh = map_mesh(fitted, result.uv, faces, config=result.config, normals=normals,
-                    progress=not args.quiet)
+    fitted = result.fitted if result.fitted is not None else cloud
+    mesh = map_mesh(fitted, result.uv, cloud.faces, mesh_faces=result.mesh_faces,
+                    config=result.config, normals=cloud.normals, progress=not args.quiet)
     scaling = uv_scaling(mesh.uv)
     write_mesh(outs["out_mesh"], mesh.vertices, mesh.faces, uv=scaling.apply(mesh.uv),
                texture=args.texture)
@@ -194,7 +192,8 @@ def run(args) -> int:
     domain = get_domain(args.domain)
     config = with_denoise(get_preset(args.preset), args.denoise)
     device = resolve_device(args.device)
-    points, faces, normals, name, default_out = _load_input(args)
+    cloud, default_out = _load_input(args)
+    points, faces, normals, name = cloud.points, cloud.faces, cloud.normals, cloud.source
     landmarks = []
     if args.landmarks is not None:
         if not domain.bounded:
@@ -206,16 +205,16 @@ def run(args) -> int:
 
     if args.threads is not None:
         torch.set_num_threads(args.threads)
-    result = parametrize(points, domain, config=config, landmarks=landmarks, device=device,
+    result = parametrize(cloud, domain, config=config, landmarks=landmarks, device=device,
                          seed=args.seed, checkpoint=outs["checkpoint"], resume=args.resume,
-                         progress=not args.quiet, normals=normals)
+                         progress=not args.quiet)
     result.faces = faces
     domain = result.domain  # what the cloud decided filled in (annulus:auto's radius)
     result.save(outs["out"])
     if outs["out_ply"] is not None:
         mapped = np.column_stack([result.uv, np.zeros(len(result.uv))])  # (N, 3), z = 0
         write_ply_atomic(outs["out_ply"], mapped, faces)
-    mesh = _write_mesh(args, outs, points, faces, normals, result)
+    mesh = _write_mesh(args, outs, cloud, result)
     if outs["plot"] is not None:
         from ..apps.plot import plot_map
 

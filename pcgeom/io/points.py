@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import InitVar, dataclass
 from pathlib import Path
 from typing import BinaryIO
 
@@ -43,6 +43,11 @@ _NORMAL_VECTOR_NAMES = ("normal", "normals")
 class PointCloud:
     """A point cloud as read from a file, with the reference faces when the file has them.
 
+    Validated when built (:func:`pcgeom.cloud.validate_points`, ``validate_faces`` and
+    ``validate_normals``, their messages prefixed with ``source``): a ``PointCloud`` is a
+    cloud checked once, at the edge, and :func:`pcgeom.maps.parametrize` and
+    :func:`pcgeom.apps.texture.map_mesh` take one as it is, without checking it again.
+
     ``eq=False``: comparing arrays element-wise has no single truth value.
     """
 
@@ -58,6 +63,15 @@ class PointCloud:
     Their sign is the file's (scanners usually point them towards the sensor); it tells the two
     sides of a surface apart.
     """
+    min_points: InitVar[int] = 10
+    """Fewest points (and distinct points) accepted (:func:`pcgeom.cloud.validate_points`)."""
+
+    def __post_init__(self, min_points: int) -> None:
+        points = validate_points(self.points, name=self.source, min_points=min_points)
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "faces", validate_faces(self.faces, len(points), self.source))
+        object.__setattr__(self, "normals",
+                           validate_normals(self.normals, len(points), self.source))
 
 
 # --------------------------------------------------------------------------- reading
@@ -360,10 +374,9 @@ def read_points(path, min_points: int = 10, *, normals: bool = True) -> PointClo
         raise InputError(f"{name}: file holds no points")
     if points.ndim != 2 or points.shape[1] != 3:
         raise InputError(f"{name}: expected shape (N, 3), got {points.shape}")
-    points = validate_points(points, name=name, min_points=min_points)
-    faces = validate_faces(faces, len(points), name)
-    file_normals = validate_normals(file_normals if normals else None, len(points), name)
-    return PointCloud(points=points, faces=faces, source=name, normals=file_normals)
+    # Checked once, here, as the PointCloud is built.
+    return PointCloud(points=points, faces=faces, source=name,
+                      normals=file_normals if normals else None, min_points=min_points)
 
 
 # --------------------------------------------------------------------------- writing

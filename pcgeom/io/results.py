@@ -22,10 +22,13 @@ key                content
                    :func:`pcgeom.denoise.denoise_points`'s record)
 ``fitted``         (N, 3) float64 the points the map was made of, when the cloud was
                    denoised (optional; input units and row order)
+``mesh_faces``     (M, 3) int64 the local mesh the map was built on, its largest connected
+                   part, as input rows (optional: the local-mesh maps)
 =================  ==========================================================================
 
 Files written before ``domain_json``, ``seed`` and ``version`` existed still load, with a
-warning that says what is unknown.
+warning that says what is unknown; files without ``mesh_faces`` load with ``mesh_faces``
+None (``pcgeom param --out-mesh`` then rebuilds the local mesh).
 """
 
 from __future__ import annotations
@@ -87,6 +90,11 @@ class ParamResult:
     fitted: np.ndarray | None = None
     """(N, 3) float64 the points on the fitted surface that the map was made of (input units
     and rows), when the cloud was denoised; None otherwise."""
+    mesh_faces: np.ndarray | None = None
+    """(M, 3) int64 the triangles of the local mesh the map was built on (its largest
+    connected part; after the normal rounds, the mesh they kept), as rows of the input (a
+    duplicated point: its first row); None for the network maps and for files written
+    before it was kept."""
 
     @property
     def preset(self) -> str:
@@ -125,6 +133,8 @@ class ParamResult:
             arrays["denoise_json"] = np.str_(json.dumps(self.denoise))
         if self.fitted is not None:
             arrays["fitted"] = np.asarray(self.fitted, dtype=np.float64)
+        if self.mesh_faces is not None:
+            arrays["mesh_faces"] = np.asarray(self.mesh_faces, dtype=np.int64)
         write_atomic(path, lambda f: np.savez_compressed(f, **arrays))
         return path
 
@@ -213,4 +223,6 @@ class ParamResult:
             faces=validate_faces(data["faces"], len(uv), name) if "faces" in data else None,
             denoise=denoise,
             fitted=None if fitted is None else fitted.astype(np.float64),
+            mesh_faces=(validate_faces(data["mesh_faces"], len(uv), f"{name}: mesh_faces")
+                        if "mesh_faces" in data else None),
         )

@@ -207,14 +207,17 @@ def _balance(U: np.ndarray, rounds: int = 50) -> np.ndarray:
 
 
 def disk_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, domain: Disk, *,
-             progress: bool, outlier: np.ndarray | None = None
+             progress: bool, outlier: np.ndarray | None = None, start: tuple | None = None
              ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The disk map of a run: :func:`conformal_disk` scaled and moved to the disk's radius and
-    centre. Parameters, returns and errors as :func:`pcgeom.maps.free.free_map` (the record
-    adds ``onto``, the domain's spec)."""
+    centre. Parameters (``start``: :func:`pcgeom.maps.free.free_start`'s result when the run
+    has it already), returns and errors as :func:`pcgeom.maps.free.free_map` (the record adds
+    ``onto``, the domain's spec)."""
+    if start is None:
+        start = free_start(Xn, normals, config, progress=progress, outlier=outlier)
     t0 = time.perf_counter()
-    uv, mesh, _, record = free_start(Xn, normals, config, progress=progress, outlier=outlier)
+    uv, mesh, _, record = start
     uv = np.asarray(domain.center) + domain.radius * conformal_disk(Xn, mesh, uv)
     record.update(onto=domain.spec, flips=mesh_flips(Xn, mesh, uv),
-                  seconds=time.perf_counter() - t0)
+                  seconds=record["seconds"] + time.perf_counter() - t0)
     return uv, conformal_factor(Xn, uv), record

@@ -285,7 +285,9 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     (step 4 of the module's description).
 
     Returns the map ``(N, 2)``, the mesh, the normals (estimated when ``normals`` is None)
-    and the start of the history record."""
+    and the start of the history record (its ``seconds``: this step's; the map that goes on
+    from here adds its own)."""
+    t0 = time.perf_counter()
     settings = config.local_mesh
     outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, dtype=bool)
     mesh, normals, record = mesh_cloud(Xn, normals, settings.neighbours,
@@ -310,6 +312,7 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     record["robust_downweighted"] = robust.get("downweighted")
     record["solver"] = solver_name()  # the sparse factorization that ran, and its ordering
     record["ordering"] = ordering_name()
+    record["seconds"] = time.perf_counter() - t0
     return uv, mesh, normals, record
 
 
@@ -372,7 +375,7 @@ def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, outlier: np.nd
 
 def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
              device: torch.device, dtype: torch.dtype, seed: int,
-             progress: bool, outlier: np.ndarray | None = None
+             progress: bool, outlier: np.ndarray | None = None, start: tuple | None = None
              ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The free-boundary map of a run: LSCM of the local mesh, optionally refined.
 
@@ -383,6 +386,9 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
     config : ParamConfig
         Uses ``local_mesh`` and, when ``local_mesh.refine_steps > 0``, ``refine`` and
         ``weights``.
+    start : tuple, optional
+        :func:`free_start`'s result when the run has it already (then ``normals`` and
+        ``outlier`` are not used).
 
     Returns
     -------
@@ -400,10 +406,11 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
     InputError
         As :func:`pcgeom.maps.localmesh.mesh_cloud`.
     """
+    if start is None:
+        start = free_start(Xn, normals, config, progress=progress, outlier=outlier)
     t0 = time.perf_counter()
     settings = config.local_mesh
-    uv, mesh, normals, record = free_start(Xn, normals, config, progress=progress,
-                                           outlier=outlier)
+    uv, mesh, normals, record = start
     lam_inv = conformal_factor(Xn, uv)
     if settings.refine_steps > 0:
         gen = torch.Generator(device="cpu")
@@ -422,5 +429,5 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
         record["refine_steps"] = settings.refine_steps
         record.update({k: refined[k] for k in LOSS_TERMS if k in refined})
     record["flips"] = mesh_flips(Xn, mesh, uv)
-    record["seconds"] = time.perf_counter() - t0
+    record["seconds"] += time.perf_counter() - t0
     return uv, lam_inv, record

@@ -31,6 +31,7 @@ from ..config import ParamConfig, get_preset
 from ..denoise import denoise_points
 from ..domains import Disk, Domain, get_domain
 from ..errors import InputError
+from ..io.points import PointCloud
 from ..io.results import ParamResult
 from ..progress import log
 from ..train.checkpoint import load_checkpoint, save_checkpoint
@@ -113,10 +114,12 @@ def parametrize(
 
     Parameters
     ----------
-    points : (N, 3) array_like
+    points : (N, 3) array_like, or PointCloud
         The cloud; checked with :func:`pcgeom.cloud.validate_points` before any work
-        (:class:`pcgeom.errors.InputError` on bad input). Duplicate points are trained once
-        and get the same output row.
+        (:class:`pcgeom.errors.InputError` on bad input), unless it is a
+        :class:`pcgeom.io.PointCloud` (:func:`pcgeom.read_points`' result), which was checked
+        when it was built and brings its normals. Duplicate points are trained once and get
+        the same output row.
     domain : Domain, str or dict
         Parameter domain or its spec (:func:`pcgeom.domains.get_domain`); ``"free"`` (the
         default) for the free-boundary map (LEG only).
@@ -143,18 +146,19 @@ def parametrize(
         quality measures the optimizer does not know about.
     normals : (N, 3) array_like, optional
         Oriented normals, one per row of ``points`` (checked with
-        :func:`pcgeom.cloud.validate_normals`). They keep the two sheets of a surface that
-        doubles back apart: the local-mesh map builds its fans from same-sheet neighbours,
-        the network stages give LEG pairs whose normals disagree weight 0 (when
-        ``config.schedule.drop_cross_sheet``, as in ``networks`` and ``fast``), and the
-        refinement drops those pairs from its neighbour lists. Without them, the local-mesh
-        map estimates and orients normals (:mod:`pcgeom.maps.normals`), and the map may fold
-        where sheets touch.
+        :func:`pcgeom.cloud.validate_normals`; for a PointCloud, used instead of its own).
+        They keep the two sheets of a surface that doubles back apart: the local-mesh map
+        builds its fans from same-sheet neighbours, the network stages give LEG pairs whose
+        normals disagree weight 0 (when ``config.schedule.drop_cross_sheet``, as in
+        ``networks`` and ``fast``), and the refinement drops those pairs from its neighbour
+        lists. Without them, the local-mesh map estimates and orients normals
+        (:mod:`pcgeom.maps.normals`), and the map may fold where sheets touch.
 
     Returns
     -------
     ParamResult
-        With the domain, seed, version and input fingerprint it was made with.
+        With the domain, seed, version and input fingerprint it was made with, and for the
+        local-mesh maps the triangles of the local mesh they were built on (``mesh_faces``).
 
     Warns
     -----
@@ -167,13 +171,18 @@ def parametrize(
     domain = get_domain(domain)
     dev = resolve_device(device)
     dtype = _DTYPES[config.dtype]
-    P = validate_points(points)
-    normals = validate_normals(normals, len(P))
+    if isinstance(points, PointCloud):  # checked when it was built
+        P = points.points
+        normals = points.normals if normals is None else validate_normals(normals, len(P))
+    else:
+        P = validate_points(points)
+        normals = validate_normals(normals, len(P))
     unique, inverse = deduplicate(P)
+    # The first row of each distinct point: it keeps its normal, and it stands for it in the
+    # local mesh's faces.
+    first = np.full(len(unique), len(P))
+    np.minimum.at(first, inverse, np.arange(len(P)))
     if normals is not None:
-        # A duplicated point keeps the normal of its first row.
-        first = np.full(len(unique), len(P))
-        np.minimum.at(first, inverse, np.arange(len(P)))
         normals = normals[first]
     Xn, center, scale = normalize(unique)
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
@@ -189,9 +198,10 @@ def parametrize(
         log(f"noise {denoised['noise']:.2f} spacings: the map is made of the fitted surface "
             f"(points moved {denoised['moved']:.2f} spacings on average)", enabled=progress)
 
-    def result(uv, lam_inv, history) -> ParamResult:
-        """The run's result, rows back in the input's order (duplicates included); a warning
-        when the map turns over triangles of the cloud's local mesh."""
+    def result(uv, lam_inv, history, mesh=None) -> ParamResult:
+        """The run's result, rows back in the input's order (duplicates included), with the
+        local mesh's main part (``mesh``) as input rows; a warning when the map turns over
+        triangles of the cloud's local mesh."""
         _warn_flips(history[-1].get("flips") if history else None)
         return ParamResult(
             uv=np.asarray(uv, dtype=np.float64)[inverse],
@@ -202,25 +212,28 @@ def parametrize(
             fingerprint=fingerprint(P), version=__version__,
             denoise=denoised if config.denoise.mode != "off" else None,
             fitted=(Xn * scale + center)[inverse] if denoised["applied"] else None,
+            mesh_faces=None if mesh is None else first[mesh.faces[mesh.main[mesh.faces]
+                                                                   .all(axis=1)]],
         )
 
     def report(record: dict, U) -> None:
         if on_stage is not None:
             on_stage(record, _numpy(U)[inverse])
 
+    start, decided = None, {}
+    if kind in ("free", "disk", "domain"):
+        # The local mesh and its free map, where every local-mesh map starts.
+        start = free_start(Xn, normals, config, progress=progress, outlier=outlier)
     if kind == "free":
         uv, lam_inv, record = free_map(Xn, normals, config, device=dev, dtype=dtype, seed=seed,
-                                       progress=progress, outlier=outlier)
+                                       progress=progress, start=start)
         report(record, uv)
-        return result(uv, lam_inv, [record])
+        return result(uv, lam_inv, [record], start[1])
     if kind == "disk":
         uv, lam_inv, record = disk_map(Xn, normals, config, domain, progress=progress,
-                                       outlier=outlier)
+                                       start=start)
         report(record, uv)
-        return result(uv, lam_inv, [record])
-    start, decided = None, {}
-    if kind == "domain":
-        start = free_start(Xn, normals, config, progress=progress, outlier=outlier)
+        return result(uv, lam_inv, [record], start[1])
     if kind == "domain" and getattr(domain, "auto", False):
         # The domain depends on the surface: the local mesh first, then the domain's sample.
         domain, decided = resolve_domain(domain, Xn, start)
@@ -238,7 +251,7 @@ def parametrize(
     if kind == "domain":
         U, lam_inv, history = domain_map(Xn, normals, config, domain, data, objective,
                                          progress=progress, on_stage=report, start=start)
-        return result(_numpy(U), _numpy(lam_inv), history)
+        return result(_numpy(U), _numpy(lam_inv), history, start[1])
     stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
     nets = build_networks(config, Xn, domain, data)
     # What a checkpoint must share with this run to be resumed.
