@@ -136,7 +136,8 @@ def mesh_region(U, loops: BoundaryLoops, target_vertices: int,
     if area <= 0:
         raise InputError("loops: the holes cover the outer loop; the reconstruction would be empty")
     relative, density = _relative(U, relative_size)
-    return _mesh_to_target(lambda size: polygons, area, target_vertices, relative, density)
+    return _mesh_to_target(lambda size: _gmsh_mesh(polygons, size, relative),
+                           _first_size(area, density, target_vertices), target_vertices)
 
 
 def _check_target_vertices(target_vertices) -> None:
@@ -164,25 +165,30 @@ def _relative(U: np.ndarray, relative_size):
     return relative, float(np.mean(r**-2.0))  # vertices per area scale with r^-2
 
 
-def _mesh_to_target(polygons_at, area: float, target_vertices: int, relative,
-                    density: float) -> tuple[np.ndarray, np.ndarray]:
-    """gmsh meshes of ``polygons_at(size)`` (the parts to mesh at element size ``size``)
-    with the size corrected until the vertex count is within 10% of ``target_vertices``
-    (at most three meshes; module docstring)."""
-    size = np.sqrt(2.0 * area * density / (np.sqrt(3.0) * target_vertices))
-    Q, T = _gmsh_mesh(polygons_at(size), size, relative)
+def _mesh_to_target(mesh_at, size: float,
+                    target_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """The meshes ``mesh_at(size)`` with the element size corrected from ``size`` until the
+    vertex count is within 10% of ``target_vertices`` (at most three meshes; module
+    docstring)."""
+    Q, T = mesh_at(size)
     if abs(len(Q) - target_vertices) <= 0.1 * target_vertices:
         return Q, T
     # Correct from the measured count: first with the interior's law (count ~ size^-2), then,
     # if still off by more than 10%, with the exponent measured between the two meshes (the
     # fixed loop points make the count fall slower than size^-2).
     size1 = size * np.sqrt(len(Q) / target_vertices)
-    Q1, T1 = _gmsh_mesh(polygons_at(size1), size1, relative)
+    Q1, T1 = mesh_at(size1)
     if abs(len(Q1) - target_vertices) <= 0.1 * target_vertices or len(Q1) == len(Q):
         return Q1, T1
     p = float(np.clip(np.log(len(Q1) / len(Q)) / np.log(size / size1), 0.5, 3.0))
     size2 = size1 * (len(Q1) / target_vertices) ** (1.0 / p)
-    return _gmsh_mesh(polygons_at(size2), size2, relative)
+    return mesh_at(size2)
+
+
+def _first_size(area: float, density: float, target_vertices: int) -> float:
+    """``sqrt(2 A density / (sqrt(3) n))``: the size of ``n`` equilateral triangles over the
+    area ``A`` (``density``: the mean of the relative size's inverse square)."""
+    return float(np.sqrt(2.0 * area * density / (np.sqrt(3.0) * target_vertices)))
 
 
 def mesh_domain(domain, target_vertices: int, U=None,
@@ -227,4 +233,6 @@ def mesh_domain(domain, target_vertices: int, U=None,
     def polygons_at(size: float) -> list[list[np.ndarray]]:
         return _split_shared([[_resample(loop, size) for loop in loops]])
 
-    return _mesh_to_target(polygons_at, float(domain.area), target_vertices, relative, density)
+    return _mesh_to_target(lambda size: _gmsh_mesh(polygons_at(size), size, relative),
+                           _first_size(float(domain.area), density, target_vertices),
+                           target_vertices)
