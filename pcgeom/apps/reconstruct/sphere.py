@@ -15,9 +15,13 @@ the sphere itself meshed with gmsh and lifted to 3D by the interpolated inverse 
    vertex count from trial meshes.
 3. Each sphere vertex ``q`` is located in a spherical triangle ``(a, b, c)`` of step 1 and
    lifted by the barycentric coordinates of its central projection onto the flat triangle:
-   ``w = (det(q, b, c), det(a, q, c), det(a, b, q)) / sum``, ``V = w . (X_a, X_b, X_c)``.
-   Inside the triangle all three are >= 0, so the lift is the cloud's piecewise-linear
-   surface through the map, never extrapolated.
+   ``w = (det(q, b, c), det(a, q, c), det(a, b, q)) / sum``, all >= 0 inside, and
+   ``p = w . (X_a, X_b, X_c)``: the cloud's flat triangle through the map (``"linear"``),
+   never extrapolated. By default (``"phong"``) ``p`` is then curved by Phong tessellation
+   with the cloud's angle-weighted normals on the same triangles (:func:`lift_sphere`): the
+   flat triangles' sag between points, O(h^2) in the spacing h, was twice screened
+   Poisson's mean distance to the true surface on clean analytic clouds (0.00021 of the
+   diagonal against 0.00010, 5000 points); Phong's is O(h^3).
 4. gmsh's triangles are oriented outward on the sphere; where the map reverses orientation
    (the lifted mesh's signed volume is negative) all are turned. The result is checked with
    trimesh: watertight, winding-consistent, Euler characteristic 2 (genus 0); anything else
@@ -34,7 +38,7 @@ from .gmsh_mesh import _check_target_vertices, _first_size, _mesh_to_target, req
 from .report import mesh_report
 
 __all__ = ["reconstruct_on_sphere", "sphere_triangulation", "lift_sphere", "mesh_sphere",
-           "sphere_compression", "closed_checks"]
+           "sphere_compression", "vertex_normals", "closed_checks", "INTERPOLATIONS"]
 
 UNIT_TOLERANCE = 1e-6
 """Largest ``| |u| - 1 |`` accepted of a sphere map's rows."""
@@ -207,10 +211,49 @@ def _locate_sphere(U: np.ndarray, T: np.ndarray, Q: np.ndarray) -> tuple[np.ndar
     return found, len(miss)
 
 
-def lift_sphere(X, U, T, Q) -> tuple[np.ndarray, int]:
+INTERPOLATIONS = ("phong", "linear")
+"""How :func:`lift_sphere` interpolates inside a cloud triangle (module docstring, step 3)."""
+
+PHONG_ALPHA = 0.5
+"""Phong tessellation's blend: 1/2 reproduces a quadratic surface exactly (to second order
+in the normals' tilt), so the lift's error falls from O(h^2) to O(h^3) in the spacing h."""
+
+
+def vertex_normals(X, T) -> np.ndarray:
+    """Angle-weighted unit normals of the mesh ``(X, T)`` at its vertices (zero at a point in
+    no triangle), oriented as the triangles are. (N, 3) float64"""
+    X, T = np.asarray(X, dtype=np.float64), np.asarray(T, dtype=np.int64)
+    e = [X[T[:, (k + 1) % 3]] - X[T[:, k]] for k in range(3)]  # side k: corner k to k + 1
+    n = np.cross(e[0], -e[2])  # (M, 3), twice the area
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), np.finfo(float).tiny)
+    out = np.zeros_like(X)
+    for k in range(3):  # the angle at corner k, between side k and the reversed side k - 1
+        a, b = e[k], -e[k - 1]
+        angle = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.sum(a * b, axis=1))
+        np.add.at(out, T[:, k], angle[:, None] * n)
+    length = np.linalg.norm(out, axis=1, keepdims=True)
+    return np.where(length > 0, out / np.where(length > 0, length, 1.0), 0.0)
+
+
+def lift_sphere(X, U, T, Q, *, interpolation: str = "phong",
+                normals=None) -> tuple[np.ndarray, int]:
     """Lift unit vectors ``Q`` (K, 3) to 3D through the sphere map ``U`` of the cloud ``X``
-    and its triangulation ``T`` (:func:`sphere_triangulation`): barycentric interpolation
-    of the central projection onto each flat triangle (module docstring, step 3).
+    and its triangulation ``T`` (:func:`sphere_triangulation`), with the barycentric
+    coordinates ``w`` of each ``q``'s central projection onto its triangle (module
+    docstring, step 3).
+
+    ``"linear"``: ``p = sum_i w_i X_i``, the cloud's flat triangles.
+    ``"phong"`` (Phong tessellation, Boubekeur and Alexa 2008): ``p`` blended with its
+    projections onto the tangent planes at the triangle's corners,
+    ``(1 - alpha) p + alpha sum_i w_i (p - ((p - X_i) . n_i) n_i)``, ``alpha`` =
+    :data:`PHONG_ALPHA`: exact on quadratic surfaces, a curved triangle through the same
+    corners; along a side it depends on that side's two points alone, so neighbours agree.
+
+    Parameters
+    ----------
+    normals : (N, 3) array_like, optional
+        Unit normals at the cloud's points for ``"phong"`` (either sign); default
+        :func:`vertex_normals` of ``(X, T)``.
 
     Returns
     -------
@@ -218,6 +261,9 @@ def lift_sphere(X, U, T, Q) -> tuple[np.ndarray, int]:
     searched : int
         Vertices located by the search over all triangles (not near their nearest points).
     """
+    if interpolation not in INTERPOLATIONS:
+        raise InputError(f"interpolation: expected one of {', '.join(INTERPOLATIONS)}, "
+                         f"got {interpolation!r}")
     X, U, T, Q = (np.asarray(A) for A in (X, U, T, Q))
     found, searched = _locate_sphere(U, T, Q)
     t = T[found]  # (K, 3)
@@ -225,7 +271,13 @@ def lift_sphere(X, U, T, Q) -> tuple[np.ndarray, int]:
     w = np.maximum(np.stack([_det(Q, b, c), _det(a, Q, c), _det(a, b, Q)], axis=1), 0.0)
     s = w.sum(axis=1, keepdims=True)
     w = np.where(s > 0, w / np.where(s > 0, s, 1.0), 1.0 / 3.0)  # (K, 3)
-    return np.einsum("kj,kji->ki", w, X[t]), searched
+    corners = X[t]  # (K, 3, 3): corner, coordinate
+    p = np.einsum("kj,kji->ki", w, corners)
+    if interpolation == "linear":
+        return p, searched
+    n = (vertex_normals(X, T) if normals is None else np.asarray(normals, dtype=np.float64))[t]
+    height = np.einsum("kji,kji->kj", p[:, None, :] - corners, n)  # (K, 3) above each plane
+    return p - PHONG_ALPHA * np.einsum("kj,kj,kji->ki", w, height, n), searched
 
 
 def _gmsh_sphere(size: float, relative=None) -> tuple[np.ndarray, np.ndarray]:
@@ -329,7 +381,7 @@ def closed_checks(V, F) -> dict:
 
 def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
                           target_vertices: int = 5000, lambda_inv=None,
-                          return_uv: bool = False):
+                          interpolation: str = "phong", return_uv: bool = False):
     """Closed triangle mesh of the genus-0 surface sampled by ``X``, remeshed on the sphere
     its map ``U`` is onto (module docstring).
 
@@ -350,6 +402,9 @@ def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
     lambda_inv : (N,) array_like, optional
         The map's compression, surface length per sphere length (for ``"adaptive"``);
         default :func:`sphere_compression` of the triangulation.
+    interpolation : {"phong", "linear"}
+        Inside a cloud triangle: Phong tessellation (curved) or the flat triangle
+        (:func:`lift_sphere`).
     return_uv : bool
         Also return the vertices on the sphere (``V`` lifts them).
 
@@ -363,14 +418,14 @@ def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
     report : dict
         :func:`mesh_report` and :func:`closed_checks`, plus ``domain`` ("sphere"),
         ``triangulation`` ("mesh_faces" or "convex_hull"), ``n_searched`` (vertices located
-        by the search over all triangles), ``orientation_reversed`` (the map turns the
+        by the search over all triangles), ``interpolation``, ``orientation_reversed`` (the map turns the
         surface inside out, so the triangles were turned), ``size``, ``target_vertices``.
 
     Raises
     ------
     InputError
         Bad shapes or a map whose rows are not unit vectors (a planar map), an unknown
-        ``size``, a triangulation that overlaps (:func:`sphere_triangulation`), or a result
+        ``size`` or ``interpolation``, a triangulation that overlaps (:func:`sphere_triangulation`), or a result
         that is not a closed genus-0 mesh.
     ImportError
         gmsh is not installed.
@@ -379,6 +434,9 @@ def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
 
     if size not in SIZES:
         raise InputError(f"size: expected one of {', '.join(SIZES)}, got {size!r}")
+    if interpolation not in INTERPOLATIONS:
+        raise InputError(f"interpolation: expected one of {', '.join(INTERPOLATIONS)}, "
+                         f"got {interpolation!r}")
     P = validate_points(X, name="points")
     U = _sphere_map(U, len(P))
     _check_target_vertices(target_vertices)
@@ -401,7 +459,7 @@ def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
         if isinstance(exc, (InputError, ImportError)):
             raise
         raise InputError(f"gmsh could not mesh the sphere: {_one_line(exc)}") from None
-    V, searched = lift_sphere(P, U, T, Q)
+    V, searched = lift_sphere(P, U, T, Q, interpolation=interpolation)
     a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
     reversed_ = bool(_det(a, b, c).sum() < 0)  # six times the signed volume
     if reversed_:
@@ -415,6 +473,6 @@ def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
                          f"{checks['euler_characteristic']}); nothing written")
     report = mesh_report(V, F, P)
     report.update(checks, domain="sphere", triangulation=source, n_searched=int(searched),
-                  orientation_reversed=reversed_, size=size,
+                  orientation_reversed=reversed_, size=size, interpolation=interpolation,
                   target_vertices=int(target_vertices))
     return (V, F, Q, report) if return_uv else (V, F, report)
