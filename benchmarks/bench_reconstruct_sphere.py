@@ -1,7 +1,8 @@
 """Benchmark closed meshes from sphere maps (issue 37, item 4) beside MeshLab's screened Poisson.
 
 On the same bare clouds, in one run: ``reconstruct_on_sphere`` (pcgeom.apps.reconstruct,
-uniform and lambda-adaptive sizing, as many target vertices as the cloud has points) and
+uniform and lambda-adaptive sizing, Phong lifting, as many target vertices as the cloud has
+points and as many as Poisson's depth-8 mesh has; the flat lifting at that count) and
 pymeshlab's screened Poisson reconstruction at depth 8 and 10, with the normals from the file
 (the analytic ones; the head's mesh normals) or estimated by pymeshlab
 (``compute_normal_for_point_clouds``, 10 neighbours). Both are timed in this process, the
@@ -89,15 +90,15 @@ def sphere_map(case, maps: str, work: Path) -> dict:
             "sphere (fast)", "X": result.fitted}
 
 
-def ours(case, smap, size: str) -> dict:
+def ours(case, smap, size: str, target: int, interpolation: str = "phong") -> dict:
     from pcgeom.apps.reconstruct import reconstruct_on_sphere
 
     X = smap.get("X") if smap.get("X") is not None else case["X"]
     (V, F, report), seconds = H.timed(
         reconstruct_on_sphere, X, smap["uv"], faces=smap["faces"], size=size,
-        target_vertices=len(case["X"]), lambda_inv=smap["lambda_inv"])
-    return {"V": V, "F": F, "seconds": seconds, "method": f"pcgeom sphere, {size}",
-            "n_searched": report["n_searched"]}
+        target_vertices=target, lambda_inv=smap["lambda_inv"], interpolation=interpolation)
+    return {"V": V, "F": F, "seconds": seconds, "n_searched": report["n_searched"],
+            "method": f"pcgeom sphere, {size}, {interpolation}, {target} target"}
 
 
 def poisson(case, depth: int, estimate: bool) -> dict:
@@ -181,17 +182,22 @@ def rows_of(case, maps: str, samples: int, work: Path) -> list[dict]:
     if smap.get("error"):
         H.log(f"{case['name']}: no sphere map: {smap['error']}")
         return [f"| {case['name']} | sphere map FAILED: {smap['error']} |"]
-    meshes = []
-    for size in ("uniform", "adaptive"):
+    theirs = [poisson(case, depth, estimate) for depth in (8, 10) for estimate in (False, True)]
+    # As many vertices as the cloud has points, and as many as Poisson's depth-8 mesh (the
+    # comparison at equal resolution); the flat lift at that count for contrast.
+    n, matched = len(case["X"]), len(theirs[0]["V"])
+    mine = []
+    for size, target, interpolation in (("uniform", n, "phong"), ("adaptive", n, "phong"),
+                                        ("uniform", matched, "phong"),
+                                        ("adaptive", matched, "phong"),
+                                        ("uniform", matched, "linear")):
         try:
-            meshes.append(ours(case, smap, size))
+            mine.append(ours(case, smap, size, target, interpolation))
         except Exception as exc:  # noqa: BLE001 - an InputError is a failure to report
-            H.log(f"{case['name']} {size}: FAILED: {exc}")
-            rows.append(f"| {case['name']} | pcgeom sphere, {size} | FAILED: {exc} |")
-    for depth in (8, 10):
-        for estimate in (False, True):
-            meshes.append(poisson(case, depth, estimate))
-    for mesh in meshes:
+            H.log(f"{case['name']} {size} {target}: FAILED: {exc}")
+            rows.append(f"| {case['name']} | pcgeom sphere, {size}, {interpolation}, {target} "
+                        f"target | FAILED: {exc} |")
+    for mesh in mine + theirs:
         row = score(mesh, case, samples)
         row["map"] = smap["source"]
         row["map_s"] = smap["seconds"]
@@ -212,7 +218,7 @@ def verdicts(rows) -> list[str]:
                 and r["method"].startswith("pcgeom")]
         theirs = [r for r in rows if isinstance(r, dict) and r["case"] == name
                   and not r["method"].startswith("pcgeom")]
-        for r in mine:
+        for r in (r for r in mine if "phong" in r["method"]):
             best_to = min(p["to_mean"] for p in theirs)
             best_from = min(p["from_mean"] for p in theirs)
             fewest = min(p["slivers"] for p in theirs)
@@ -226,7 +232,8 @@ def verdicts(rows) -> list[str]:
                 (f"slivers {r['slivers']} < Poisson's fewest {fewest}",
                  r["slivers"] < fewest or r["slivers"] == 0),
             ]
-            lines.append(f"- {name}, {r['method'][len('pcgeom sphere, '):]}: " + "; ".join(
+            lines.append(f"- {name}, {r['method'][len('pcgeom sphere, '):]}, "
+                         f"{r['n_vertices']} vertices: " + "; ".join(
                 f"{what}: {'PASS' if ok else 'FAIL'}" for what, ok in checks))
     return lines
 
@@ -240,8 +247,9 @@ def render(rows, args, argv, started: float) -> str:
                      f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', '(unset)')}",
                      f"{(time.time() - started) / 60:.0f} min in all",
                      f"load average at end {load or 'n/a'}"),
-           f"- sphere maps: {maps}; pcgeom's mesh: `reconstruct_on_sphere`, as many target "
-           "vertices as the cloud has points; Poisson: pymeshlab "
+           f"- sphere maps: {maps}; pcgeom's mesh: `reconstruct_on_sphere` (Phong or flat "
+           "lifting), as many target vertices as the cloud has points, and as many as "
+           "Poisson's depth-8 mesh has (equal resolution); Poisson: pymeshlab "
            "`generate_surface_reconstruction_screened_poisson` (preclean), normals from the "
            "file or `compute_normal_for_point_clouds` (k 10). Seconds: the reconstruction "
            "alone, in this process (the map is made before).",

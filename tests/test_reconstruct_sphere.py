@@ -175,3 +175,16 @@ def test_a_lifted_mesh_that_is_not_closed_is_an_error(monkeypatch):
     with pytest.raises(InputError, match=r"not closed and genus 0 \(watertight False"):
         reconstruct_on_sphere(X, U, target_vertices=200)
     assert closed_checks(*original(0.5))["euler_characteristic"] == 2
+
+
+def test_map_faces_with_a_hole_fall_back_to_the_convex_hull():
+    """A map's own mesh without some triangles (holes, points left out) but none turned
+    over: the map is one-to-one there, and the hull triangulates the whole sphere."""
+    X, U = _ellipsoid(500)
+    hull, _ = sphere_triangulation(U)
+    T, source = sphere_triangulation(U, hull[5:])
+    assert source.startswith("convex_hull (mesh_faces cover 3.9")
+    np.testing.assert_array_equal(np.sort(np.sort(T, axis=1), axis=0),
+                                  np.sort(np.sort(hull, axis=1), axis=0))
+    with pytest.raises(InputError, match=r"\(mesh_faces\) overlaps: 0 of 1001 .* 4\.0\d+ pi"):
+        sphere_triangulation(U, np.vstack([hull, hull[:5]]))  # five triangles twice

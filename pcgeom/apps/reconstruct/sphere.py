@@ -87,7 +87,10 @@ def sphere_triangulation(U, faces=None) -> tuple[np.ndarray, str]:
     U : (N, 3) array_like
         Unit vectors.
     faces : (M, 3) array_like of int, optional
-        The map's own triangulation (``ParamResult.mesh_faces``), either orientation.
+        The map's own triangulation (``ParamResult.mesh_faces``), either orientation: used
+        when it covers the sphere once. None turned over and less than the whole sphere (a
+        mesh with holes, or without some points): the convex hull instead, since the map is
+        one-to-one on the mesh.
         Default: the convex hull of ``U`` (scipy's Qhull), the spherical Delaunay
         triangulation; a duplicated point is left out of it.
 
@@ -97,45 +100,55 @@ def sphere_triangulation(U, faces=None) -> tuple[np.ndarray, str]:
         Rows of ``U``; ``det(U[a], U[b], U[c]) > 0`` for each (zero for a degenerate one of
         ``faces``).
     source : str
-        ``"mesh_faces"`` or ``"convex_hull"``.
+        ``"mesh_faces"``, ``"convex_hull"``, or ``"convex_hull (mesh_faces cover X pi)"``.
 
     Raises
     ------
     InputError
-        The triangles overlap (some turned over against the others) or leave part of the
-        sphere uncovered (areas summing to other than ``4 pi``): the map is not one-to-one.
+        The triangles overlap (some turned over against the others, or covering more than
+        the sphere) or the hull leaves part of the sphere uncovered (areas summing to other
+        than ``4 pi``: the points lie on one side of a plane through the centre): the map is
+        not one-to-one.
     """
     U = np.asarray(U, dtype=np.float64)
-    if faces is None:
-        from scipy.spatial import ConvexHull, QhullError
-
-        try:
-            hull = ConvexHull(U)
-        except QhullError as exc:
-            raise InputError(f"U: its convex hull fails ({_one_line(exc)}); the map does not "
-                             "cover the sphere") from None
-        T = np.asarray(hull.simplices, dtype=np.int64)
-        a, b, c = U[T[:, 0]], U[T[:, 1]], U[T[:, 2]]
-        outward = np.einsum("ij,ij->i", np.cross(b - a, c - a), hull.equations[:, :3]) > 0
-        T[~outward] = T[~outward][:, [0, 2, 1]]
-        source = "convex_hull"
-    else:
+    source = "convex_hull"
+    if faces is not None:
         T = np.asarray(faces, dtype=np.int64)
         if T.ndim != 2 or T.shape[1] != 3 or len(T) == 0 or T.min() < 0 or T.max() >= len(U):
             raise InputError(f"faces: expected (M, 3) rows of U (0..{len(U) - 1}), "
                              f"got shape {T.shape}")
         if _spherical_areas(U, T).sum() < 0:  # the mesh is wound the other way
             T = T[:, [0, 2, 1]]
-        source = "mesh_faces"
+        areas = _spherical_areas(U, T)
+        total = float(np.abs(areas).sum())
+        if (areas < 0).any() or total > (1 + COVER_TOLERANCE) * 4 * np.pi:
+            _overlap("mesh_faces", T, areas)
+        if total >= (1 - COVER_TOLERANCE) * 4 * np.pi:
+            return T, "mesh_faces"
+        source = f"convex_hull (mesh_faces cover {total / np.pi:.3f} pi)"
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        hull = ConvexHull(U)
+    except QhullError as exc:
+        raise InputError(f"U: its convex hull fails ({_one_line(exc)}); the map does not "
+                         "cover the sphere") from None
+    T = np.asarray(hull.simplices, dtype=np.int64)
+    a, b, c = U[T[:, 0]], U[T[:, 1]], U[T[:, 2]]
+    outward = np.einsum("ij,ij->i", np.cross(b - a, c - a), hull.equations[:, :3]) > 0
+    T[~outward] = T[~outward][:, [0, 2, 1]]
     areas = _spherical_areas(U, T)
-    turned = int((areas < 0).sum())
-    total = float(np.abs(areas).sum())
-    if turned or abs(total - 4 * np.pi) > COVER_TOLERANCE * 4 * np.pi:
-        raise InputError(f"the sphere map's triangulation ({source}) overlaps: {turned} of "
-                         f"{len(T)} triangles turned over, areas summing to "
-                         f"{total / np.pi:.4f} pi (one cover is 4 pi); the map is not "
-                         "one-to-one")
+    if (areas < 0).any() or abs(np.abs(areas).sum() - 4 * np.pi) > COVER_TOLERANCE * 4 * np.pi:
+        _overlap("convex_hull", T, areas)
     return T, source
+
+
+def _overlap(source: str, T: np.ndarray, areas: np.ndarray):
+    """The one-line InputError of a triangulation that does not cover the sphere once."""
+    raise InputError(f"the sphere map's triangulation ({source}) overlaps: "
+                     f"{int((areas < 0).sum())} of {len(T)} triangles turned over, areas "
+                     f"summing to {np.abs(areas).sum() / np.pi:.4f} pi (one cover is 4 pi); "
+                     "the map is not one-to-one")
 
 
 def sphere_compression(X, U, T) -> np.ndarray:
