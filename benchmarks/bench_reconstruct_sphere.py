@@ -110,7 +110,7 @@ def poisson(case, depth: int, estimate: bool) -> dict:
     t0 = time.perf_counter()
     if estimate:
         ms.compute_normal_for_point_clouds(k=10)
-    ms.generate_surface_reconstruction_screened_poisson(depth=depth, preclean=True)
+    ms.generate_surface_reconstruction_screened_poisson(depth=depth, preclean=True, threads=1)
     seconds = time.perf_counter() - t0
     mesh = ms.current_mesh()
     return {"V": np.asarray(mesh.vertex_matrix(), dtype=np.float64),
@@ -250,7 +250,8 @@ def render(rows, args, argv, started: float) -> str:
            f"- sphere maps: {maps}; pcgeom's mesh: `reconstruct_on_sphere` (Phong or flat "
            "lifting), as many target vertices as the cloud has points, and as many as "
            "Poisson's depth-8 mesh has (equal resolution); Poisson: pymeshlab "
-           "`generate_surface_reconstruction_screened_poisson` (preclean), normals from the "
+           "`generate_surface_reconstruction_screened_poisson` (preclean, 1 thread like "
+           "pcgeom's), normals from the "
            "file or `compute_normal_for_point_clouds` (k 10). Seconds: the reconstruction "
            "alone, in this process (the map is made before).",
            f"- distances over the bounding-box diagonal: mesh to truth (its vertices and "
