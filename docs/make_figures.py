@@ -228,7 +228,7 @@ def normals_figure(path: Path) -> list[dict]:
     couple of spacings apart; the normals' errors and the maps' angles."""
     import dataclasses as dc
 
-    from pcgeom.cloud import adaptive_pca, local_pca
+    from pcgeom.neighbours import adaptive_pca, local_pca
     from pcgeom.config import LocalMeshConfig
     from pcgeom.synthetic import pleated_sheet
 

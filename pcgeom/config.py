@@ -248,7 +248,7 @@ class LocalMeshConfig:
     normal_scales: tuple[int, ...] = (6, 8, 12, 16, 24)
     """Neighbour counts of the neighbourhood PCA (the surface test, and the normals of a cloud
     without them): each point's is the largest whose neighbours lie within
-    :attr:`normal_tolerance` as flat as at its flattest (:func:`pcgeom.cloud.adaptive_pca`).
+    :attr:`normal_tolerance` as flat as at its flattest (:func:`pcgeom.neighbours.adaptive_pca`).
     A pleated sheet whose sheets lie 2 spacings apart (:func:`pcgeom.synthetic.pleated_sheet`,
     6000 points, bare): 16 neighbours 0.174 rad, 2.9% flipped; these 0.0131, no flip (LSCM on
     its true mesh 0.0020: the folds, one spacing in radius, and the rim keep the rest); 2.5

@@ -21,7 +21,7 @@ point.
    neighbours and, when it fits, reports (and sizes the fits by) the estimate with 32, which
    under-reads strong noise less (measured 0.85-0.98 of the true std on a noisy plane and
    sphere cap, 0.82-1.00 on face_3holes_small_choi with depth noise of 0.25-1 mean edge
-   lengths; 16 neighbours: 0.70-0.96). Strays (:func:`pcgeom.cloud.find_outliers`) are left
+   lengths; 16 neighbours: 0.70-0.96). Strays (:func:`pcgeom.neighbours.find_outliers`) are left
    out, and with oriented normals each fit keeps its point's sheet.
 2. **Heights** (:func:`fit_heights`). Each point is moved along the normal of a weighted
    least-squares quadric (a jet of order 2, as in moving least squares) fitted to its
@@ -89,8 +89,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .cloud import Neighbours, _quadric_basis, find_outliers, local_pca, surface_variation
 from .config import DenoiseConfig
+from .neighbours import Neighbours, find_outliers, local_pca, quadric_basis, surface_variation
 
 __all__ = ["NoiseEstimate", "estimate_noise", "fit_heights", "denoise_points"]
 
@@ -101,7 +101,7 @@ _MIN_FIT = 12
 """The Gaussian width of a fit is at least half the distance to this neighbour."""
 
 FITTED_MAX_VARIATION = 0.05
-"""Largest median surface variation (:func:`pcgeom.cloud.surface_variation`, 16 neighbours)
+"""Largest median surface variation (:func:`pcgeom.neighbours.surface_variation`, 16 neighbours)
 of fitted points that sample one surface. Measured: noisy faces (depth noise 0.5 and 1 mean
 edge lengths: 0.10-0.15 before the fit, above the local mesh's 0.15 for face_human_choi at
 1) read 0.003-0.010 after it; a cube of uniform random points 0.18 before and 0.13 after."""
@@ -128,7 +128,7 @@ def estimate_noise(X, neighbours: int = 16, normals=None, *, knn: Neighbours | N
     Parameters
     ----------
     X : (N, 3) array_like
-        Distinct points of one surface (strays removed: :func:`pcgeom.cloud.find_outliers`).
+        Distinct points of one surface (strays removed: :func:`pcgeom.neighbours.find_outliers`).
     neighbours : int
         Points of each quadric fit, the point itself included.
     normals : (N, 3) array_like, optional
@@ -158,7 +158,7 @@ def estimate_noise(X, neighbours: int = 16, normals=None, *, knn: Neighbours | N
         local = np.einsum("nkd,nde->nke", Q, frame)  # (n, k, 3)
         # The nearest neighbour (slot 1) measured in the tangent plane.
         gaps[s:s + _CHUNK] = np.linalg.norm(local[:, 1, 1:] - local[:, 0, 1:], axis=1)
-        A = _quadric_basis(local[..., 1], local[..., 2])  # (n, k, 6)
+        A = quadric_basis(local[..., 1], local[..., 2])  # (n, k, 6)
         AtA = np.einsum("nk,nki,nkj->nij", w, A, A) + 1e-12 * np.eye(6)
         Atz = np.einsum("nk,nki,nk->ni", w, A, local[..., 0])
         coef = np.linalg.solve(AtA, Atz[..., None])[..., 0]
@@ -225,11 +225,11 @@ def fit_heights(X, width: float, spacing: float, neighbours: int = 96,
         _, frame = np.linalg.eigh(np.einsum("nk,nki,nkj->nij", w, Q, Q))  # columns: n, t1, t2
         local = np.einsum("nkd,nde->nke", Q, frame)  # (n, k, 3)
         own = np.einsum("nd,nde->ne", x0 - centre, frame)
-        A = _quadric_basis(local[..., 1], local[..., 2])  # (n, k, 6)
+        A = quadric_basis(local[..., 1], local[..., 2])  # (n, k, 6)
         AtA = np.einsum("nk,nki,nkj->nij", w, A, A) + 1e-12 * np.eye(A.shape[-1])
         Atz = np.einsum("nk,nki,nk->ni", w, A, local[..., 0])
         coef = np.linalg.solve(AtA, Atz[..., None])[..., 0]
-        height = np.einsum("ni,ni->n", _quadric_basis(own[:, 1], own[:, 2]), coef)
+        height = np.einsum("ni,ni->n", quadric_basis(own[:, 1], own[:, 2]), coef)
         out[s:s + _CHUNK] = x0 + (height - own[:, 0])[:, None] * frame[:, :, 0]
     return out
 
@@ -255,7 +255,7 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
     estimate : NoiseEstimate, optional
         The cloud's noise estimate, if already made.
     outlier : (N,) bool, optional
-        The cloud's strays (:func:`pcgeom.cloud.find_outliers`), if already found.
+        The cloud's strays (:func:`pcgeom.neighbours.find_outliers`), if already found.
     knn : Neighbours, optional
         The points' nearest points (at least 16 each), if already found: the strays and the
         noise estimate read them.
@@ -269,7 +269,7 @@ def denoise_points(X, config: DenoiseConfig = DenoiseConfig(mode="on"), normals=
         off or not a surface), ``noise_std`` and ``spacing`` (the cloud's units),
         ``applied``, ``skipped`` (why not: ``"below the threshold"``, ``"not a surface"``),
         ``width`` (of the fits, in spacings), ``same_sheet`` (normals kept the fits on one
-        sheet), ``strays`` (flagged by :func:`pcgeom.cloud.find_outliers`, more than 5
+        sheet), ``strays`` (flagged by :func:`pcgeom.neighbours.find_outliers`, more than 5
         noise std off the fitted surface, left where they are), ``moved`` (mean distance moved,
         in spacings), ``seconds``.
     """

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cloud import validate_faces
+from .mesh import signed_areas, unique_edges
 
 __all__ = ["angle_distortion", "AngleReport", "flip_locations", "flipped_mask", "hausdorff",
            "domain_hausdorff", "surface_hausdorff"]
@@ -124,10 +125,7 @@ def angle_distortion(V, F, U) -> AngleReport:
     a3 = _defined(igl.internal_angles(V, F))  # (M, 3)
     a2 = _defined(igl.internal_angles(np.column_stack([U, np.zeros(len(U))]), F))  # (M, 3)
     diff = np.abs(a3 - a2)
-    e1 = U[F[:, 1]] - U[F[:, 0]]  # (M, 2)
-    e2 = U[F[:, 2]] - U[F[:, 0]]
-    signed = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]  # (M,) twice the signed area
-    mask = flipped_mask(signed)
+    mask = flipped_mask(signed_areas(U, F))
     return AngleReport(float(diff.mean()), int(mask.sum()), len(F), diff,
                        flip_locations(V, F, mask))
 
@@ -162,8 +160,7 @@ def flip_locations(V, F, flipped: np.ndarray, rings: int = 2) -> dict[str, int]:
     if not flipped.any():
         return out
     n = len(V)
-    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    unique, counts = unique_edges(F, return_counts=True)
     border = unique[counts == 1]  # (B, 2)
     if not len(border):
         return out
@@ -339,8 +336,7 @@ def surface_hausdorff(U, F, domain, n: int = 200_000, seed: int = 0) -> float:
         _, distances = tree.query_nearest(W[~covered], return_distance=True)
         gap = float(distances.max())
     # Area-uniform points of the mapped triangles: folded ones count by their unsigned area.
-    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])  # (M,)
+    area = np.abs(signed_areas(U, F))  # (M,)
     Y = U[np.unique(F)]
     if area.sum() > 0:
         rng = np.random.default_rng(seed)
@@ -348,6 +344,7 @@ def surface_hausdorff(U, F, domain, n: int = 200_000, seed: int = 0) -> float:
         a, b = rng.random(n), rng.random(n)
         fold = a + b > 1.0  # reflect into the triangle: uniform barycentric weights
         a[fold], b[fold] = 1.0 - a[fold], 1.0 - b[fold]
-        Y = np.vstack([Y, corners[face, 0] + a[:, None] * e1[face] + b[:, None] * e2[face]])
+        e1, e2 = corners[face, 1] - corners[face, 0], corners[face, 2] - corners[face, 0]
+        Y = np.vstack([Y, corners[face, 0] + a[:, None] * e1 + b[:, None] * e2])
     outside = float(max(0.0, domain.signed_distance(Y).max()))
     return max(outside, gap)

@@ -19,6 +19,8 @@ import dataclasses
 
 import numpy as np
 
+from .mesh import signed_areas, unique_edges
+
 __all__ = ["HeightFieldScan", "RangeScan", "PleatedSheet", "holey_heightfield", "range_scan",
            "pleated_sheet", "HEIGHT_BUMPS"]
 
@@ -170,8 +172,7 @@ def _unit_rows(A: np.ndarray) -> np.ndarray:
 
 
 def _mean_edge(P: np.ndarray, F: np.ndarray) -> float:
-    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    E = np.unique(np.sort(E, axis=1), axis=0)
+    E = unique_edges(F)
     return float(np.linalg.norm(P[E[:, 0]] - P[E[:, 1]], axis=1).mean())
 
 
@@ -260,8 +261,7 @@ def holey_heightfield(n: int = 6000, holes: int = 20, outliers: float = 0.01,
         over_hole |= np.hypot(centroid[:, 0] - cx, centroid[:, 1] - cy) < r
     edge = np.linalg.norm(uv[F] - uv[np.roll(F, 1, axis=1)], axis=2).max(axis=1)
     F = F[~over_hole & (edge < 3.0 * h)]
-    e1, e2 = uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]
-    area2 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    area2 = 2.0 * signed_areas(uv, F)
     F[area2 < 0] = F[area2 < 0][:, ::-1]  # counter-clockwise in the parameter plane
     spacing = _mean_edge(clean, F)
 
@@ -648,8 +648,7 @@ def pleated_sheet(n: int = 6000, folds: int = 4, gap: float = 2.0, *, width: flo
     inside = inside[(inside > 0.5 * h).all(axis=1) & (inside < [1.0, width] - 0.5 * h).all(axis=1)]
     uv = np.vstack([inside, rim])
     F = Delaunay(uv).simplices.astype(np.int64)
-    e1, e2 = uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]
-    area2 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    area2 = 2.0 * signed_areas(uv, F)
     F = F[np.abs(area2) > 1e-12 * width]  # collinear side points
     area2 = area2[np.abs(area2) > 1e-12 * width]
     F[area2 < 0] = F[area2 < 0][:, ::-1]

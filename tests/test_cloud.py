@@ -139,7 +139,7 @@ def test_fingerprint_identifies_the_float64_coordinates():
 
 
 def test_adaptive_pca_at_one_scale_is_the_plain_neighbourhood_pca():
-    from pcgeom.cloud import adaptive_pca, local_pca, surface_variation
+    from pcgeom.neighbours import adaptive_pca, local_pca, surface_variation
 
     X = np.random.default_rng(0).normal(size=(2000, 3)) * [1.0, 1.0, 0.1]
     variation, normals, k, per_scale = adaptive_pca(X, scales=(16,), tolerance=0.0)
@@ -154,7 +154,7 @@ def test_adaptive_pca_averages_noise_on_a_plane():
     """A noisy plane is about as flat at the largest scale as at its flattest: nearly every
     point takes it, and the normals are those of the plane (the smallest scale alone tilts
     them by the noise)."""
-    from pcgeom.cloud import adaptive_pca
+    from pcgeom.neighbours import adaptive_pca
 
     rng = np.random.default_rng(1)
     X = np.column_stack([rng.uniform(size=(3000, 2)), rng.normal(scale=0.004, size=3000)])
@@ -169,7 +169,7 @@ def test_adaptive_pca_keeps_the_facing_sheet_of_a_fold_out():
     """Sheets 2 spacings apart: 16 neighbours reach across and tilt the normals of several
     percent of the points by more than 30 degrees; the adaptive scale almost none (measured
     7.4% and 0.13%)."""
-    from pcgeom.cloud import adaptive_pca, local_pca
+    from pcgeom.neighbours import adaptive_pca, local_pca
     from pcgeom.synthetic import pleated_sheet
 
     sheet = pleated_sheet(6000, folds=4, gap=2.0)
@@ -185,7 +185,7 @@ def test_adaptive_pca_keeps_the_facing_sheet_of_a_fold_out():
 def test_shared_neighbours_are_the_queries_each_step_made_alone():
     from scipy.spatial import cKDTree
 
-    from pcgeom.cloud import Neighbours, find_outliers
+    from pcgeom.neighbours import Neighbours, find_outliers
 
     rng = np.random.default_rng(3)
     X = np.column_stack([rng.uniform(-1, 1, (3000, 2)), np.zeros(3000)])

@@ -20,6 +20,7 @@ from pcgeom.maps.injective import (
     signed_areas,
     untangle,
 )
+from pcgeom.mesh import one_fan, peel_rim, shoelace
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
@@ -283,7 +284,7 @@ def test_one_fan_drops_the_smaller_fan_at_a_pinch():
     """Two disks glued at one vertex: the vertex has two fans; the smaller goes."""
     _, big, _, _ = _annulus(n_r=2, n_t=8)  # one strip
     small = np.array([[0, 100, 101], [0, 101, 102]])  # a second fan at vertex 0
-    kept, dropped = inj._one_fan(np.vstack([big, small]))
+    kept, dropped = one_fan(np.vstack([big, small]))
     assert dropped == 2 and len(kept) == len(big)
 
 
@@ -294,7 +295,7 @@ def test_rebuild_loops_follows_the_peeled_rim():
     V = V.copy()
     apex = 7  # the third vertex of the triangle on the bottom side's edge 1-2
     V[apex, :2] = [-0.25, -0.99]  # its angle near 180 degrees
-    F2, peeled = inj._peel_rim(V, F, math.radians(120))
+    F2, peeled = peel_rim(V, F, math.radians(120))
     assert peeled >= 1
     U = V[:, :2].copy()
     ring = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]], dtype=float)
@@ -355,7 +356,6 @@ def test_face_with_three_holes_onto_the_smile():
     from pcgeom.domains import get_domain
     from pcgeom.maps.domain import _laid_out, harmonic_onto
     from pcgeom.maps.free import free_start
-    from pcgeom.maps.localmesh import _signed_area
     from pcgeom.metrics import angle_distortion, surface_hausdorff
 
     cloud = read_points(DATA / "face_3holes_small_choi.ply", normals=False)
@@ -367,7 +367,7 @@ def test_face_with_three_holes_onto_the_smile():
     Z = align(P)
     loops, paired = [], []
     for loop, r in [(outer, 0)] + [(holes[k], 1 + j) for k, j in enumerate(align.pairing)]:
-        if (_signed_area(Z[loop]) > 0) != (_signed_area(rings[r][:-1]) > 0):
+        if (shoelace(Z[loop]) > 0) != (shoelace(rings[r][:-1]) > 0):
             loop = loop[::-1]
         loops.append(np.asarray(loop))
         paired.append(rings[r])

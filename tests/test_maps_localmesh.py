@@ -189,7 +189,7 @@ def _bumps(n: int, seed: int = 0) -> np.ndarray:
 
 
 def test_stray_points_are_flagged_and_clean_surfaces_keep_every_point():
-    from pcgeom.cloud import find_outliers
+    from pcgeom.neighbours import find_outliers
 
     X = _bumps(4000)
     assert not find_outliers(X).any()  # a clean surface: nothing flagged
@@ -262,7 +262,7 @@ def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
     import shapely
 
     from pcgeom.maps.disk import _planar_mesh
-    from pcgeom.maps.localmesh import _boundary_loops
+    from pcgeom.mesh import boundary_loops
 
     P = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.45], [3.0, 0.5]], dtype=float)
     T = _planar_mesh(P, np.array([0, 1, 2, 3]))
@@ -285,7 +285,7 @@ def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
     P = np.array([[0, 0], [0.5, 0], [1.5, 0], [2, 0], [2, 2], [0, 2], [1, 0.08], [1, 1]],
                  dtype=float)
     T = _planar_mesh(P, np.array([0, 1, 2, 3, 4, 5]))
-    (rim,) = _boundary_loops(T)
+    (rim,) = boundary_loops(T)
     assert set(rim) == {0, 1, 2, 3, 4, 5, 6}
     assert 7 in T and len(T) == 7  # 8 Delaunay triangles less the flat one
     # A loop enclosing no area gives no triangle (conformal_disk then says "degenerate").
@@ -479,13 +479,14 @@ def test_main_part_is_joined_through_edges_not_corners():
     """Triangles that touch the rest at one corner only are not in the main part (LSCM could
     turn and scale them about that corner); the points they alone hold are left to the
     interpolation of the rest, near their neighbours."""
-    from pcgeom.maps.localmesh import LocalMesh, _main_part
+    from pcgeom.maps.localmesh import LocalMesh
+    from pcgeom.mesh import main_part
 
     # A strip of four triangles, and one triangle hanging from its corner 5.
     X = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [1, 1, 0], [2, 1, 0],
                   [2.6, 1.8, 0.1], [3.0, 1.2, 0.1]])
     F = np.array([[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4], [5, 6, 7]])
-    main = _main_part(F, len(X))
+    main = main_part(F, len(X))
     np.testing.assert_array_equal(main, [True] * 6 + [False, False])
     U = lscm_free(X, LocalMesh(faces=F, main=main, boundary_edges=8, candidates=5))
     assert np.isfinite(U).all()

@@ -21,7 +21,7 @@ import pytest
 
 from pcgeom import InputError, cli, parametrize, read_points
 from pcgeom.apps.baselines import lscm
-from pcgeom.cloud import find_outliers
+from pcgeom.neighbours import find_outliers
 from pcgeom.metrics import angle_distortion
 from pcgeom.synthetic import HEIGHT_BUMPS, holey_heightfield, pleated_sheet, range_scan
 from pcgeom.maps.localmesh import CLOSED_SURFACE

@@ -54,10 +54,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cloud import _one_line, fingerprint
+from ..cloud import fingerprint
 from ..config import ParamConfig, get_preset
 from ..domains import Domain, get_domain
-from ..errors import InputError
+from ..errors import InputError, _one_line
 from ..io import SUPPORTED_EXTENSIONS, ParamResult, read_points, write_atomic, write_ply_atomic
 from ..progress import Progress
 

@@ -179,8 +179,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cloud import _float_rows, deduplicate
+from ..cloud import _float_rows
 from ..errors import InputError
+from ..mesh import shoelace, signed_areas, unique_edges
+from .planar import delaunay, distinct_points, validate_map
 
 __all__ = ["BoundaryLoops", "detect_boundary", "local_spacing", "hole_width", "DEFAULT_C",
            "DEFAULT_MIN_LOOP", "DEFAULT_MIN_WIDTH"]
@@ -246,11 +248,6 @@ class BoundaryLoops:
         }
 
 
-def _validate_map(U) -> np.ndarray:
-    """``U`` as a finite (N, 2) float64 array, or InputError."""
-    return _float_rows(U, "U", 2)
-
-
 def _check_positive(value, name: str) -> float:
     return _check_number(value, name, allow_zero=False)
 
@@ -281,38 +278,6 @@ def _check_non_negative(value, name: str) -> float:
     return _check_number(value, name, allow_zero=True)
 
 
-def _distinct_points(U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct points of a map (K, 2), in order of first use, and the first input row of
-    each (K,) int64; InputError when fewer than 3."""
-    unique, inverse = deduplicate(U)  # unique[inverse] == U
-    if len(unique) < 3:
-        raise InputError(f"U: {len(unique)} distinct points (of {len(U)}), need at least 3")
-    row = np.empty(len(unique), dtype=np.int64)
-    row[inverse[::-1]] = np.arange(len(U))[::-1]
-    return unique, row
-
-
-def _delaunay(U: np.ndarray) -> np.ndarray:
-    """Delaunay triangles of distinct points ``U``, each counter-clockwise. (M, 3) int64."""
-    from scipy.spatial import Delaunay, QhullError
-
-    try:
-        T = Delaunay(U).simplices.astype(np.int64)
-    except QhullError:
-        # Qhull fails on degenerate input only: all points on one line.
-        raise InputError(f"U: all {len(U)} distinct points lie on one line; "
-                         "a map of a surface spans an area") from None
-    flip = _signed_area2(U, T) < 0
-    T[flip] = T[flip][:, [0, 2, 1]]
-    return T
-
-
-def _signed_area2(U: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Twice the signed area of each triangle (positive counter-clockwise). (M,)"""
-    a, b, c = U[T[:, 0]], U[T[:, 1]], U[T[:, 2]]
-    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-
-
 def _edge_lengths(U: np.ndarray, T: np.ndarray) -> np.ndarray:
     """Length of edge (T[:, k], T[:, k+1]) for k = 0, 1, 2. (M, 3)"""
     return np.linalg.norm(U[T] - U[np.roll(T, -1, axis=1)], axis=2)
@@ -335,8 +300,7 @@ def local_spacing(U, T) -> np.ndarray:
     """
     U = np.asarray(U, dtype=np.float64)
     T = np.asarray(T, dtype=np.int64)
-    E = np.unique(np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1),
-                  axis=0)  # (E, 2) undirected edges, each once
+    E = unique_edges(T)  # (E, 2) undirected edges, each once
     length = np.linalg.norm(U[E[:, 0]] - U[E[:, 1]], axis=1)
     vertex = np.concatenate([E[:, 0], E[:, 1]])  # each edge at both of its ends
     length = np.concatenate([length, length])
@@ -389,7 +353,7 @@ def _kept(U: np.ndarray, T: np.ndarray, h: float | None, c: float) -> np.ndarray
     L = _edge_lengths(U, T)  # (M, 3)
     if h is not None:
         return L.max(axis=1) <= h
-    area2 = np.abs(_signed_area2(U, T))
+    area2 = 2.0 * np.abs(signed_areas(U, T))
     with np.errstate(divide="ignore"):
         R = L.prod(axis=1) / (2.0 * area2)  # abc / (4 A); inf for a degenerate triangle
     first = local_spacing(U, T)  # (K,) every Delaunay edge counts, those across gaps too
@@ -462,12 +426,6 @@ def _walk_loops(U: np.ndarray, T: np.ndarray) -> list[np.ndarray]:
     return loops
 
 
-def _loop_area(U: np.ndarray, loop: np.ndarray) -> float:
-    """Signed area enclosed by a closed polygon (shoelace), positive counter-clockwise."""
-    x, y = U[loop, 0], U[loop, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-
-
 def _start_at_smallest(loop: np.ndarray) -> np.ndarray:
     return np.roll(loop, -int(np.argmin(loop)))
 
@@ -526,7 +484,7 @@ def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
     rounding error) are on no loop. Triangles and loops are in input rows: for duplicates,
     the smallest row.
     """
-    U = _validate_map(U)
+    U = validate_map(U)
     if h is not None:
         h = _check_positive(h, "h")
     c = _check_positive(c, "c")
@@ -539,14 +497,14 @@ def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
         min_width = _check_non_negative(min_width, "min_width")
     elif cloud_spacing:
         raise InputError("cloud_spacing: needs the cloud (points)")
-    unique, row = _distinct_points(U)
+    unique, row = distinct_points(U)
 
-    T = _delaunay(unique)
+    T = delaunay(unique)
     keep = _kept(unique, T, h, c)
     if cloud_spacing:
         keep &= _kept_in_cloud(X, row[T], c)
     loops = [_start_at_smallest(row[loop]) for loop in _walk_loops(unique, T[keep])]
-    areas = [_loop_area(U, loop) for loop in loops]
+    areas = [shoelace(U[loop]) for loop in loops]
     # Largest enclosed area first (ties: smallest row); the outer loop, the largest
     # counter-clockwise one, then moves to the front.
     order = sorted(range(len(loops)), key=lambda i: (-abs(areas[i]), int(loops[i][0])))

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cloud import _one_line
 from ..domains import Domain
+from ..errors import _one_line
 from ..metrics import AngleReport, angle_distortion, domain_hausdorff, surface_hausdorff
 from .baselines import BASELINES
 

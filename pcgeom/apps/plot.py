@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import write_atomic
+from ..mesh import half_edges
 from ..train.objective import LOSS_TERMS
 
 __all__ = ["plot_map", "plot_domain", "plot_history", "plot_angle_histogram", "plot_boundary",
@@ -312,7 +313,7 @@ def _draw_boundary(ax, U: np.ndarray, found, legend: bool) -> None:
 
     for tris, colour, alpha in ((found.triangles, "0.55", 0.5), (found.removed, "tab:orange", 0.25)):
         if len(tris):
-            segs = U[np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])]
+            segs = U[half_edges(tris)]
             ax.add_collection(LineCollection(segs, colors=colour, linewidths=0.3, alpha=alpha))
     size = float(np.clip(4000.0 / len(U), 0.3, 6.0))
     ax.scatter(U[:, 0], U[:, 1], s=size, c="0.3", linewidths=0)

@@ -8,7 +8,13 @@ from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["Domain", "check_count", "as_points2d"]
+__all__ = ["Domain", "check_count", "as_points2d", "CORNER_DEG"]
+
+CORNER_DEG = 15.0
+"""A vertex of a domain's boundary ring where the ring turns by more than this (degrees) is a
+corner: the Riemann map sends a rim point of the cloud exactly onto it
+(:func:`pcgeom.maps.riemann.snap_corners`), and a domain's mesh keeps it when its rings are
+resampled to the element size (:func:`pcgeom.apps.reconstruct.mesh_domain`)."""
 
 
 def check_count(n, name: str = "n") -> int:

@@ -18,8 +18,8 @@ from typing import BinaryIO
 
 import numpy as np
 
-from ..cloud import _one_line, validate_faces, validate_normals, validate_points
-from ..errors import InputError
+from ..cloud import validate_faces, validate_normals, validate_points
+from ..errors import InputError, _one_line
 from .atomic import check_writable, write_atomic
 
 __all__ = ["PointCloud", "SUPPORTED_EXTENSIONS", "read_points", "write_ply_atomic"]

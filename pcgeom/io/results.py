@@ -42,10 +42,10 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..cloud import _one_line, validate_faces
+from ..cloud import validate_faces
 from ..config import ParamConfig, preset_name
 from ..domains import Domain, get_domain
-from ..errors import InputError
+from ..errors import InputError, _one_line
 from .atomic import check_readable, check_writable, write_atomic
 
 __all__ = ["ParamResult"]

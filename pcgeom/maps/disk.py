@@ -12,10 +12,10 @@ from ..domains import Disk
 from ..errors import InputError
 from ._sparse import spd_factor
 from .free import conformal_factor, free_start
-from .localmesh import (LocalMesh, _boundary_loops, _edge_ids, _interpolate_rest, _main_part,
-                        _signed_area, _submesh, _vertex_manifold, mesh_flips)
+from ..mesh import boundary_loops, main_part, one_fan, peel_rim, shoelace, signed_areas
+from .localmesh import LocalMesh, _interpolate_rest, _submesh, mesh_flips
 
-__all__ = ["conformal_disk", "disk_map", "RIM_ANGLE"]
+__all__ = ["conformal_disk", "disk_map"]
 
 
 def _planar_mesh(P: np.ndarray, loop: np.ndarray) -> np.ndarray:
@@ -30,7 +30,7 @@ def _planar_mesh(P: np.ndarray, loop: np.ndarray) -> np.ndarray:
     circle. Keeping the triangles whose centroid is inside instead cut those notches: on
     face_human_choi the mapped true surface then missed the circle by 0.019 (0.013 with this
     test; with its normals 0.0195 -> 0.010), at the same angles. Then the flat rim triangles
-    over points just inside the loop are peeled (:func:`_peel_rim`). Points on top of another
+    over points just inside the loop are peeled (:func:`pcgeom.mesh.peel_rim`). Points on top of another
     (qhull leaves them out) or outside the polygon belong to no triangle.
     """
     import shapely
@@ -46,60 +46,18 @@ def _planar_mesh(P: np.ndarray, loop: np.ndarray) -> np.ndarray:
     shapely.prepare(region)
     tri = Delaunay(P).simplices.astype(np.int64)
     tri = tri[shapely.contains(region, shapely.polygons(P[tri]))]
-    a, b = P[tri[:, 1]] - P[tri[:, 0]], P[tri[:, 2]] - P[tri[:, 0]]
-    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    cross = 2.0 * signed_areas(P, tri)
     tri[cross < 0] = tri[cross < 0][:, [0, 2, 1]]
     # qhull leaves flat triangles over collinear rim points (a grid's straight side): their
     # cotangent weights are infinite and the disk map's system singular.
     tri = tri[np.abs(cross) > 1e-12 * region.area]
-    return _vertex_manifold(_peel_rim(P, tri))
-
-
-RIM_ANGLE = 2.0 * np.pi / 3.0
-"""A rim triangle whose angle opposite its boundary edge is wider than this spans a notch of
-the rim (:func:`_peel_rim`)."""
-
-
-def _peel_rim(P: np.ndarray, T: np.ndarray, rounds: int = 20) -> np.ndarray:
-    """Drop the rim triangles that bridge a notch of the rim: one boundary edge, the angle
-    opposite it wider than :data:`RIM_ANGLE`, and the opposite vertex not on the rim yet
-    (so that it joins the rim, and the mesh stays manifold). Repeated while any is left.
-
-    The local mesh's fans cover a rim point that lies a little inside its neighbours on the
-    rim (the stars are Delaunay in each tangent plane), so the disk map put such a point
-    inside the disk and the true surface missed the circle there: on face_human_choi by 0.013
-    (0.010 with its normals), on that face decimated to 6085 points (its 168 rim vertices
-    kept) by 0.043. Peeled: 0.0007, 0.0007 and 0.0006, with angles a little lower (0.0397 ->
-    0.0392 rad bare, 0.0257 -> 0.0253, 0.0458 -> 0.0448) and the same flips; the same from
-    100 to 140 degrees.
-    """
-    limit = np.cos(RIM_ANGLE)
-    m = len(T)
-    edges = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])  # (3M, 2)
-    opposite = np.concatenate([T[:, 2], T[:, 0], T[:, 1]])  # (3M,)
-    face = np.arange(len(edges)) % max(m, 1)
-    # Each edge's undirected id and how many kept triangles have it, updated as they go.
-    eid = _edge_ids(edges)
-    uses = np.bincount(eid)
-    kept = np.ones(m, dtype=bool)
-    for _ in range(rounds):
-        rim = np.flatnonzero((uses[eid] == 1) & kept[face])  # boundary edges
-        on_rim = np.zeros(len(P), dtype=bool)
-        on_rim[edges[rim].ravel()] = True
-        u = P[edges[rim, 0]] - P[opposite[rim]]
-        v = P[edges[rim, 1]] - P[opposite[rim]]
-        cos = (u * v).sum(axis=1) / np.maximum(
-            np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
-        faces, count = np.unique(face[rim], return_counts=True)
-        one_edge = np.zeros(m, dtype=bool)
-        one_edge[faces[count == 1]] = True
-        drop = np.unique(face[rim][(cos < limit) & ~on_rim[opposite[rim]]])
-        drop = drop[one_edge[drop]]
-        if not len(drop):
-            break
-        kept[drop] = False
-        np.subtract.at(uses, eid[np.concatenate([drop, drop + m, drop + 2 * m])], 1)
-    return T[kept]
+    # Peeled (every sliver of a round, 20 rounds): the true surface of face_human_choi missed
+    # the circle by 0.013 (0.010 with its normals), that face decimated to 6085 points by
+    # 0.043; peeled: 0.0007, 0.0007 and 0.0006, with angles a little lower (0.0397 -> 0.0392
+    # rad bare, 0.0257 -> 0.0253, 0.0458 -> 0.0448) and the same flips; the same from 100 to
+    # 140 degrees.
+    tri, _ = peel_rim(P, tri, rounds=20, one_per_vertex=False)
+    return one_fan(tri, 5, bowties_only=True)[0]
 
 
 def _harmonic_measure_disk(V: np.ndarray, F: np.ndarray, outer: np.ndarray,
@@ -167,17 +125,17 @@ def conformal_disk(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> np.nd
     from scipy.spatial import cKDTree
 
     n_all = len(X)
-    faces = _vertex_manifold(mesh.faces)
-    main, _, F = _submesh(X, faces, _main_part(faces, n_all))
+    faces = one_fan(mesh.faces, 5, bowties_only=True)[0]
+    main, _, F = _submesh(X, faces, main_part(faces, n_all))
     P = np.ascontiguousarray(free_uv[main])
-    loops = _boundary_loops(F)
+    loops = boundary_loops(F)
     if not loops:
         raise InputError("the local mesh has no boundary loop; a disk map needs one")
-    outer = np.array(max(loops, key=lambda loop: abs(_signed_area(P[loop]))))
+    outer = np.array(max(loops, key=lambda loop: abs(shoelace(P[loop]))))
     T = _planar_mesh(P, outer)
-    placed, V2, T = _submesh(np.column_stack([P, np.zeros(len(P))]), T, _main_part(T, len(P)))
-    plane = _boundary_loops(T) if len(T) else []
-    rim = np.array(max(plane, key=lambda loop: abs(_signed_area(V2[loop, :2]))) if plane else [],
+    placed, V2, T = _submesh(np.column_stack([P, np.zeros(len(P))]), T, main_part(T, len(P)))
+    plane = boundary_loops(T) if len(T) else []
+    rim = np.array(max(plane, key=lambda loop: abs(shoelace(V2[loop, :2]))) if plane else [],
                    dtype=np.int64)
     inside = np.setdiff1d(np.arange(len(V2)), rim)
     if not len(rim) or not len(inside):

@@ -50,6 +50,7 @@ from ..config import ParamConfig
 from ..domains import Disk, Domain
 from ..errors import InputError
 from ..losses import landmark_hand
+from ..mesh import boundary_loops, face_keys, main_part, one_fan, shoelace, signed_areas
 from ..metrics import hausdorff
 from ..train.data import TrainData
 from ..train.objective import Objective
@@ -57,16 +58,12 @@ from ._sparse import spd_factor
 from .disk import conformal_disk
 from .free import conformal_factor, free_start
 from .injective import BarrierConfig, InjectiveConfig, UntangleConfig, injective_map
-from .localmesh import (LocalMesh, _boundary_loops, _face_keys, _interpolate_rest, _main_part,
-                        _signed_area, _submesh, _vertex_manifold, mesh_flips)
+from .localmesh import LocalMesh, _interpolate_rest, _submesh, mesh_flips
 from .refine import refine
-from .riemann import riemann_onto, simply_connected
+from .riemann import ROTATIONS, riemann_onto, simply_connected
 
 __all__ = ["domain_map", "annulus_radius", "resolve_domain", "harmonic_onto", "injective_onto",
            "landmarks_onto", "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS", "MIN_HOLE_RATIO"]
-
-ROTATIONS = 72
-"""Evenly spaced rotations tried by the alignment, besides each pairing's Procrustes one."""
 
 MAX_PAIRINGS = 720
 """At most this many pairings of mesh holes with domain holes are tried (6 holes: all); above,
@@ -166,7 +163,7 @@ def _align(P: np.ndarray, region: tuple[float, np.ndarray], loops: tuple[np.ndar
     if math.perm(h, m) <= MAX_PAIRINGS:
         pairings = list(itertools.permutations(range(h), m))
     else:
-        by_area = sorted(range(h), key=lambda j: _signed_area(D_holes[j][:-1]))  # CW: negative
+        by_area = sorted(range(h), key=lambda j: shoelace(D_holes[j][:-1]))  # CW: negative
         pairings = [tuple(by_area[:m])]
     best = None
     for mirror in (False, True):
@@ -217,11 +214,11 @@ def _main_loops(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray
     """The local mesh made vertex-manifold, its main part (``main``: its rows of ``X``, its
     vertices and faces) and that part's boundary loops, by decreasing area in the map
     ``uv`` (N, 2): the outer loop first, then the holes."""
-    faces = _vertex_manifold(mesh.faces)
-    main, V, F = _submesh(X, faces, _main_part(faces, len(X)))
+    faces = one_fan(mesh.faces, 5, bowties_only=True)[0]
+    main, V, F = _submesh(X, faces, main_part(faces, len(X)))
     P = uv[main]
-    loops = sorted((np.asarray(loop, dtype=np.int64) for loop in _boundary_loops(F)),
-                   key=lambda loop: -abs(_signed_area(P[loop])))
+    loops = sorted((np.asarray(loop, dtype=np.int64) for loop in boundary_loops(F)),
+                   key=lambda loop: -abs(shoelace(P[loop])))
     return main, V, F, loops
 
 
@@ -244,8 +241,7 @@ def _laid_out(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, domain: Domain, la
     outer, holes = loops[0], loops[1:]
     rings = [np.asarray(r, dtype=np.float64) for r in domain.boundary_loops()]
     tri = P[F]  # (M, 3, 2)
-    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    tri_area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    tri_area = np.abs(signed_areas(P, F))
     region_area = float(tri_area.sum())
     region_centroid = (tri_area[:, None] * tri.mean(axis=1)).sum(axis=0) / region_area
     marks = _on_main(landmarks, main, len(X))
@@ -273,7 +269,7 @@ def _warn_unmatched_holes(Z: np.ndarray, holes, rings, align: Alignment,
     is the aligned free map."""
     import warnings
 
-    ratios = [abs(_signed_area(Z[holes[k]])) / abs(_signed_area(rings[1 + j][:-1]))
+    ratios = [abs(shoelace(Z[holes[k]])) / abs(shoelace(rings[1 + j][:-1]))
               for k, j in enumerate(align.pairing)]
     missing = len(rings) - 1 - len(align.pairing)
     small = [r for r in ratios if r < MIN_HOLE_RATIO]
@@ -323,7 +319,7 @@ def _harmonic_layout(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain
     for loop, ring in [(outer, rings[0])] + [(holes[k], rings[1 + j])
                                              for k, j in enumerate(align.pairing)]:
         # Rings: outer counter-clockwise, holes clockwise; the loop must run the same way.
-        if (_signed_area(Z[loop]) > 0) != (_signed_area(ring[:-1]) > 0):
+        if (shoelace(Z[loop]) > 0) != (shoelace(ring[:-1]) > 0):
             loop = loop[::-1]
         pairs.append((loop, ring))
     fixed_idx = np.concatenate([loop for loop, _ in pairs])
@@ -484,7 +480,7 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
     D = U0[main]
     if not loops:
         raise InputError("the local mesh has no boundary loop; a map onto a domain needs one")
-    outer = loops[0] if _signed_area(D[loops[0]]) > 0 else loops[0][::-1]
+    outer = loops[0] if shoelace(D[loops[0]]) > 0 else loops[0][::-1]
     ring = np.asarray(domain.boundary_loops()[0], dtype=np.float64)
     U, more = _injective(X, mesh, (main, V, F, D), [(outer, ring)], domain, landmarks, config)
     return U, {**info, **more}
@@ -492,7 +488,7 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
 
 def _dropped(faces: np.ndarray, kept: np.ndarray, n: int) -> np.ndarray:
     """The triangles of ``faces`` not in ``kept`` (both rows of a cloud of ``n`` points)."""
-    return faces[~np.isin(_face_keys(faces, n), _face_keys(kept, n))]
+    return faces[~np.isin(face_keys(faces, n), face_keys(kept, n))]
 
 
 def annulus_radius(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray) -> float:

@@ -40,15 +40,16 @@ import warnings
 import numpy as np
 import torch
 
-from ..cloud import find_outliers
+from ..neighbours import find_outliers
 from ..config import ParamConfig
 from ..errors import InputError
+from ..mesh import edge_ids
 from ..progress import Progress
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
 from ._sparse import fill_order, ordering_name, solver_name, spd_factor
-from .localmesh import (MIN_MESHED, LocalMesh, _edge_ids, _interpolate_rest, _submesh,
-                        local_mesh, mesh_cloud, mesh_flips, mesh_normals)
+from .localmesh import (MIN_MESHED, LocalMesh, _interpolate_rest, _submesh, local_mesh, mesh_cloud,
+                        mesh_flips, mesh_normals)
 from .refine import refine
 
 __all__ = ["lscm_free", "conformal_factor", "free_map", "free_start"]
@@ -198,7 +199,7 @@ def _weighted_form(V: np.ndarray, F: np.ndarray, weights: np.ndarray) -> tuple:
     a, b = ab[:, 0], ab[:, 1]
     c = 0.5 * (igl.cotmatrix_entries(V, F) * weights[:, None]).ravel()
     q = np.repeat(0.25 * weights, 3) * np.where(a < b, 1.0, -1.0)
-    inverse = _edge_ids(ab)  # each undirected edge once
+    inverse = edge_ids(ab)  # each undirected edge once
     n_edges = int(inverse.max(initial=-1)) + 1
     lo, hi = np.empty(n_edges, dtype=np.int64), np.empty(n_edges, dtype=np.int64)
     lo[inverse], hi[inverse] = np.minimum(a, b), np.maximum(a, b)

@@ -10,7 +10,7 @@ outside, so every point of the domain is covered by exactly one triangle.
 
 1. **Clean** the mesh of what no flip-free planar map can hold (triangles are dropped, never
    points: a dropped triangle's vertices are mapped all the same): two fans meeting at a vertex
-   (:func:`_one_fan`), rim slivers (:func:`_peel_rim`), handles (:func:`_cut_handles`). The
+   (:func:`pcgeom.mesh.one_fan`), rim slivers (:func:`pcgeom.mesh.peel_rim`), handles (:func:`_cut_handles`). The
    local mesh of a bare cloud has all three: face_3holes_small_choi 43 vertices with two
    fans; face_human_choi with a hole, 10 handles where the estimated normals join the
    eyelids' or lips' sheets.
@@ -93,6 +93,9 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..mesh import (RIM_ANGLE_DEG, boundary_loops, half_edges, main_faces, one_fan,
+                    opposite_corners, peel_rim, shoelace, signed_areas, unique_edges)
 
 __all__ = ["flipped", "signed_areas", "reference_triangles", "conformal_energy",
            "max_feasible_step", "untangle", "tutte_fill", "injective_map", "InjectiveConfig",
@@ -229,9 +232,9 @@ class InjectiveConfig:
 
     start: str = "auto"
     """One of :data:`STARTS`."""
-    rim_angle: float = 120.0
+    rim_angle: float = RIM_ANGLE_DEG
     """Rim triangles whose 3D angle opposite their boundary edge is wider than this,
-    degrees, are dropped, their third vertex joining the rim (:func:`_peel_rim`); 180: none."""
+    degrees, are dropped, their third vertex joining the rim (:func:`pcgeom.mesh.peel_rim`); 180: none."""
     corner_angle: float = 20.0
     """A ring turning by more than this at a point, degrees, has a corner there, and the
     nearest loop vertex is pinned to it (the smile's eyes and mouth turn by 90; its arcs by
@@ -272,19 +275,6 @@ def _as_mesh(V, F, U=None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         if not np.isfinite(U).all():
             raise ValueError("U0: contains NaN or inf")
     return V, F, U
-
-
-def signed_areas(U, F) -> np.ndarray:
-    """Signed areas of the mapped triangles, ``(m,)``: positive when ``U[F]`` is
-    counter-clockwise.
-
-    ``a_t = ((u_1 - u_0) x (u_2 - u_0)) / 2`` (the 2D cross product).
-    """
-    U = np.asarray(U, dtype=np.float64)
-    F = np.asarray(F)
-    e1 = U[F[:, 1]] - U[F[:, 0]]
-    e2 = U[F[:, 2]] - U[F[:, 0]]
-    return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
 
 
 def _not_positive(U: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -1224,8 +1214,6 @@ def tutte_fill(V, F, outer, outer_uv) -> np.ndarray:
     import scipy.sparse as sp
     from scipy.sparse.linalg import splu
 
-    from .localmesh import _boundary_loops
-
     V = np.asarray(V, dtype=np.float64)
     if V.shape[1] == 2:
         V = np.column_stack([V, np.zeros(len(V))])
@@ -1233,7 +1221,7 @@ def tutte_fill(V, F, outer, outer_uv) -> np.ndarray:
     outer = np.asarray(outer, dtype=np.int64)
     taken = set(outer.tolist())
     points, faces = [V], [F]
-    for loop in _boundary_loops(F):
+    for loop in boundary_loops(F):
         if loop[0] in taken:
             continue
         c = n + sum(len(p) for p in points[1:])
@@ -1382,8 +1370,8 @@ def injective_map(V, F, U0, loops, rings, *, landmarks=(),
     corner = math.radians(config.corner_angle)
 
     # Step 1: clean; the loops follow the cleaned rim, each vertex at an arc length.
-    F, pinched = _one_fan(F_all)
-    F, peeled = _peel_rim(V, F, math.radians(config.rim_angle))
+    F, pinched = one_fan(F_all)
+    F, peeled = peel_rim(V, F, math.radians(config.rim_angle))
     F, handles = _cut_handles(V, F)
     U = U0.copy()
     loops, ts, joined = _rebuild_loops(V, F, _Rings(loops, rings, U))
@@ -1462,7 +1450,7 @@ def injective_map(V, F, U0, loops, rings, *, landmarks=(),
         # The polygons through the vertices on the rings: a released vertex would only earn
         # area by going deeper into the domain (``outside`` keeps it from leaving it).
         cover = ([loop[~np.isin(loop, released)] for loop in loops],
-                 [_shoelace(r) for r in rings])
+                 [shoelace(r) for r in rings])
     reference = _scaled_reference(V, F, U, weights)
     marks = [(np.asarray(i, dtype=np.int64).ravel(), np.asarray(q, dtype=np.float64))
              for i, q in landmarks]
@@ -1506,7 +1494,7 @@ def _pull_start(V, F, U, weights, loops, rings, slide, index, config: InjectiveC
         outer_uv = U[outer]
     else:  # a circle of the ring's area, the loop spread as on the ring
         angle = 2 * np.pi * (slide.t[0] - slide.t[0][0]) / slide.length[0]
-        radius = math.sqrt(abs(_shoelace(rings[0])) / np.pi)
+        radius = math.sqrt(abs(shoelace(rings[0])) / np.pi)
         centre = np.asarray(_region(rings).centroid.coords[0])
         outer_uv = centre + radius * np.column_stack([np.cos(angle), np.sin(angle)])
     U = tutte_fill(V, F, outer, outer_uv)
@@ -1668,88 +1656,12 @@ def _snap(F: np.ndarray, U: np.ndarray, index: np.ndarray, targets: np.ndarray
 # ------------------------------------------- step 1: cleaning, loops, corners
 
 
-def _one_fan(F: np.ndarray, rounds: int = 10) -> tuple[np.ndarray, int]:
-    """Drop triangles until every vertex has one fan (its triangles connected through shared
-    edges): where fans meet at a vertex, all but the largest go.
-
-    Two fans at a vertex need twice 360 degrees around it in the plane: no flip-free map
-    exists. The local mesh's vertex-manifold cleaning finds fans that meet on the rim with
-    two boundary edges each; a rim vertex can also hold its closed star and a fan of slivers
-    from its neighbours' stars (face_3holes_small_choi: 43 such vertices, all on the rim;
-    the Euler characteristic is -45 where a disk with three holes has -2). Returns the faces
-    kept and how many were dropped.
-    """
-    from .localmesh import _smaller_fans
-
-    dropped = 0
-    for _ in range(rounds):
-        incident: dict[int, list[int]] = {}
-        for t, tri in enumerate(F.tolist()):
-            for v in tri:
-                incident.setdefault(v, []).append(t)
-        drop: set[int] = set()
-        for v, tris in incident.items():
-            drop.update(_smaller_fans(F, v, tris))
-        if not drop:
-            break
-        F = np.delete(F, sorted(drop), axis=0)
-        dropped += len(drop)
-    return F, dropped
-
-
-def _peel_rim(V: np.ndarray, F: np.ndarray, angle: float, rounds: int = 100
-              ) -> tuple[np.ndarray, int]:
-    """Drop the rim slivers: one boundary edge, the 3D angle opposite it wider than
-    ``angle``, the opposite vertex on no boundary yet (it joins the rim), as
-    :func:`pcgeom.maps.disk._peel_rim` does in the plane. Repeated while any is left.
-
-    The local mesh's tangent fans cover a rim point a little inside its neighbours on the rim
-    with such slivers; laid on a curved ring they fold, and their nearly flat reference shape
-    makes any map of them extreme. Returns the faces kept and how many were dropped.
-    """
-    from .localmesh import _edge_sides
-
-    limit = math.cos(angle)
-    dropped = 0
-    for _ in range(rounds):
-        edges, boundary = _edge_sides(F)  # (3M, 2), (3M,)
-        opposite = np.concatenate([F[:, 2], F[:, 0], F[:, 1]])
-        face = np.arange(len(edges)) % len(F)
-        on_rim = np.zeros(int(F.max()) + 1, dtype=bool)
-        on_rim[edges[boundary].ravel()] = True
-        one_edge = np.bincount(face[boundary], minlength=len(F)) == 1
-        u = V[edges[:, 0]] - V[opposite]
-        w = V[edges[:, 1]] - V[opposite]
-        cos = (u * w).sum(axis=1) / np.maximum(
-            np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1), 1e-300)
-        pick = np.flatnonzero(boundary & (cos < limit) & ~on_rim[opposite] & one_edge[face])
-        # One triangle per joining vertex a round, so the rim stays one loop through it.
-        _, first = np.unique(opposite[pick], return_index=True)
-        drop = np.unique(face[pick[first]])
-        if not len(drop):
-            break
-        F = np.delete(F, drop, axis=0)
-        dropped += len(drop)
-    return F, dropped
-
-
 def _genus(F: np.ndarray) -> int:
     """Handles of the vertex-manifold, connected mesh ``F``: ``(2 - chi - b) / 2`` with
     ``chi = V - E + F`` and ``b`` its boundary loops."""
-    from .localmesh import _boundary_loops
-
-    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
-                              axis=1), axis=0)
+    edges = unique_edges(F)
     chi = len(np.unique(F)) - len(edges) + len(F)
-    return (2 - chi - len(_boundary_loops(F))) // 2
-
-
-def _main_faces(F: np.ndarray) -> np.ndarray:
-    """The faces of the largest connected part of ``F``."""
-    from .localmesh import _main_part
-
-    main = _main_part(F, int(F.max()) + 1)
-    return F[main[F].all(axis=1)]
+    return (2 - chi - len(boundary_loops(F))) // 2
 
 
 def _cut_handles(V: np.ndarray, F: np.ndarray, rounds: int = 30) -> tuple[np.ndarray, int]:
@@ -1759,13 +1671,11 @@ def _cut_handles(V: np.ndarray, F: np.ndarray, rounds: int = 30) -> tuple[np.nda
     circle) folds where the handles are; those triangles and the ones around them go, and
     the mesh's largest part is kept, until no handle is left. Returns the faces kept and how
     many were dropped."""
-    from .localmesh import _boundary_loops
-
     dropped = 0
     for _ in range(rounds):
         if _genus(F) <= 0:
             break
-        outer = np.asarray(max(_boundary_loops(F), key=lambda loop: np.linalg.norm(
+        outer = np.asarray(max(boundary_loops(F), key=lambda loop: np.linalg.norm(
             V[np.roll(loop, -1)] - V[loop], axis=1).sum()))
         step = np.linalg.norm(V[np.roll(outer, -1)] - V[outer], axis=1)
         angle = 2 * np.pi * np.concatenate([[0.0], np.cumsum(step)[:-1]]) / step.sum()
@@ -1780,8 +1690,8 @@ def _cut_handles(V: np.ndarray, F: np.ndarray, rounds: int = 30) -> tuple[np.nda
         near[F[bad].ravel()] = True
         drop = near[F].any(axis=1)  # the folded triangles and their neighbours
         before = len(F)
-        F, _ = _one_fan(_main_faces(F[~drop]))
-        F = _main_faces(F)
+        F, _ = one_fan(main_faces(F[~drop]))
+        F = main_faces(F)
         dropped += before - len(F)
     return F, dropped
 
@@ -1812,12 +1722,10 @@ def _rebuild_loops(V: np.ndarray, F: np.ndarray, slide: _Rings
     ValueError
         A paired loop has no boundary loop left sharing at least three of its vertices.
     """
-    from .localmesh import _boundary_loops
-
     t_of = []
     for k, loop in enumerate(slide.loops):
         t_of.append(dict(zip(loop.tolist(), (slide.t[k] % slide.length[k]).tolist())))
-    candidates = [np.asarray(loop, dtype=np.int64) for loop in _boundary_loops(F)]
+    candidates = [np.asarray(loop, dtype=np.int64) for loop in boundary_loops(F)]
     loops, ts, new = [], [], []
     for k in range(len(slide.loops)):
         shared = [sum(v in t_of[k] for v in c.tolist()) for c in candidates]
@@ -1926,12 +1834,10 @@ def _scaffold(V: np.ndarray, F: np.ndarray, U: np.ndarray, paired: list[np.ndarr
     """Fill each boundary loop of ``F`` that is not in ``paired`` with a fan to a new vertex
     at its centroid (in 3D and in the map). Returns the vertices, faces and map with the new
     vertices appended (rows ``len(V):``) and the fans after ``F``."""
-    from .localmesh import _boundary_loops
-
     taken = set(np.concatenate(paired).tolist())
     points, faces, maps = [V], [F], [U]
     n = len(V)
-    for loop in _boundary_loops(F):
+    for loop in boundary_loops(F):
         if loop[0] in taken:
             continue
         loop = np.asarray(loop)
@@ -1968,8 +1874,7 @@ def _release(U: np.ndarray, F: np.ndarray, loops: list[np.ndarray], rings: list[
         position[loop] = np.arange(len(loop))
     region = _region(rings)
     shapely.prepare(region)
-    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    edges, counts = np.unique(edges, axis=0, return_counts=True)
+    edges, counts = unique_edges(F, return_counts=True)
     p, q = edges[counts == 2].T  # interior edges
     same = on[p] & on[q] & (loop_of[p] == loop_of[q])
     p, q = p[same], q[same]
@@ -2009,8 +1914,8 @@ def _other_diagonals(F: np.ndarray) -> np.ndarray:
     """For each interior edge ``ab`` of ``F`` (triangles ``abc`` and ``bad``), the two
     triangles of its quad split by the other diagonal, ``adc`` and ``dbc`` (oriented as
     ``F``), (2e, 3)."""
-    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    opposite = np.concatenate([F[:, 2], F[:, 0], F[:, 1]])
+    e = half_edges(F)
+    opposite = opposite_corners(F)
     n = int(F.max()) + 1
     code = e[:, 0] * n + e[:, 1]
     order = np.argsort(code)
@@ -2030,7 +1935,7 @@ def _place_dropped(U: np.ndarray, F: np.ndarray, F_all: np.ndarray) -> np.ndarra
     mean of their neighbours in ``F_all`` that are placed, repeated outwards."""
     placed = np.zeros(len(U), dtype=bool)
     placed[F.ravel()] = True
-    edges = np.concatenate([F_all[:, [0, 1]], F_all[:, [1, 2]], F_all[:, [2, 0]]])
+    edges = half_edges(F_all)
     edges = np.concatenate([edges, edges[:, ::-1]])
     U = U.copy()
     for _ in range(100):
@@ -2053,24 +1958,17 @@ def _region(rings: list[np.ndarray]):
     holes."""
     import shapely
 
-    areas = [abs(_shoelace(r)) for r in rings]
+    areas = [abs(shoelace(r)) for r in rings]
     outer = int(np.argmax(areas))
     return shapely.Polygon(rings[outer], [r for k, r in enumerate(rings) if k != outer])
-
-
-def _shoelace(P: np.ndarray) -> float:
-    x, y = P[:, 0], P[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
 
 def _free_loops_simple(U: np.ndarray, F: np.ndarray, paired: list[np.ndarray]) -> bool:
     """Every boundary loop of ``F`` not in ``paired`` is a simple polygon in ``U``."""
     import shapely
 
-    from .localmesh import _boundary_loops
-
     taken = set(np.concatenate(paired).tolist()) if paired else set()
-    for loop in _boundary_loops(F):
+    for loop in boundary_loops(F):
         if loop[0] in taken:
             continue
         if not shapely.LinearRing(U[loop]).is_simple:

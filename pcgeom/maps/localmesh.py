@@ -28,9 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cloud import (Neighbours, adaptive_pca, find_outliers, local_pca, scale_ladder,
-                     surface_variation)
 from ..errors import InputError
+from ..mesh import RIM_ANGLE, edge_sides, face_keys, main_part, opposite_corners, signed_areas
+from ..neighbours import (Neighbours, adaptive_pca, find_outliers, local_pca, scale_ladder,
+                          surface_variation)
 from ..progress import Progress
 from .normals import orient_normals
 
@@ -41,7 +42,7 @@ MIN_MESHED = 0.5
 """The smallest share of the points the local mesh's main part must hold."""
 
 MAX_VARIATION = 0.15
-"""Largest median surface variation (:func:`pcgeom.cloud.surface_variation`) of a surface at
+"""Largest median surface variation (:func:`pcgeom.neighbours.surface_variation`) of a surface at
 :data:`SURFACE_NEIGHBOURS` neighbours; a volume of random points gives about 0.19, a smooth
 scan below 0.01, and face_human_choi with noise of half its mean edge length 0.12."""
 
@@ -50,7 +51,7 @@ SURFACE_NEIGHBOURS = 16
 
 FLAT_VARIATION = 0.03
 """... or largest median surface variation at each point's own scale
-(:func:`pcgeom.cloud.adaptive_pca`): a surface whose sheets come within a couple of spacings
+(:func:`pcgeom.neighbours.adaptive_pca`): a surface whose sheets come within a couple of spacings
 fails the test at 16 neighbours (a pleat with sheets 1.5 spacings apart: 0.23) but is flat at
 its points' own scales (0.000); a volume of random points is not (0.087: a few of its points
 are never flat)."""
@@ -259,31 +260,6 @@ def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray
     return tris[np.sort(keep)], len(tris)
 
 
-def _main_part(faces: np.ndarray, n: int) -> np.ndarray:
-    """(n,) bool: the vertices of the largest part of ``faces`` whose triangles are joined
-    through shared edges (none if empty). A triangle that touches the rest at a corner only
-    is not part of it: LSCM could turn and scale it freely about that corner (such a
-    triangle of a normal round's mesh of face_human_choi sent two points 1000 map widths
-    away)."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
-
-    main = np.zeros(n, dtype=bool)
-    m = len(faces)
-    if m:
-        # A graph of the triangles and their edges: triangle t is node t, edge e node m + e.
-        ids = _edge_ids(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]))
-        size = m + int(ids.max()) + 1
-        graph = sp.coo_matrix((np.ones(3 * m, dtype=np.int8), (np.tile(np.arange(m), 3),
-                                                              m + ids)), shape=(size, size))
-        del ids
-        _, label = connected_components(graph, directed=False)
-        del graph
-        label = label[:m]
-        main[faces[label == np.bincount(label).argmax()].ravel()] = True
-    return main
-
-
 def _submesh(X: np.ndarray, faces: np.ndarray, keep: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The vertices ``keep`` (bool mask) of the mesh, renumbered: their indices, contiguous
@@ -326,8 +302,8 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     candidates = kept[_fans(X[kept], normals[kept], neighbours, progress, knn=knn)]
     faces, n_candidates = _merge(X, normals, candidates)
     del candidates
-    main = _main_part(faces, n)
-    boundary = int(_edge_sides(faces)[1].sum())
+    main = main_part(faces, n)
+    boundary = int(edge_sides(faces)[1].sum())
     return LocalMesh(faces=faces, main=main, boundary_edges=boundary, candidates=n_candidates)
 
 
@@ -365,125 +341,6 @@ def mesh_normals(X: np.ndarray, mesh: LocalMesh, previous: np.ndarray) -> np.nda
     return out
 
 
-def _edge_sides(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each triangle's three edges, ``(3M, 2)`` in the order 01, 12, 20 of every triangle
-    (edge ``k`` belongs to triangle ``k % M``), and whether each is on one triangle only
-    (a boundary edge), ``(3M,)``."""
-    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    if not len(edges):
-        return edges, np.zeros(0, dtype=bool)
-    ids = _edge_ids(edges)
-    return edges, np.bincount(ids)[ids] == 1
-
-
-def _edge_ids(edges: np.ndarray) -> np.ndarray:
-    """(E,) int64: the same number for the rows of ``edges`` (E, 2) that join the same two
-    vertices, in either direction, numbered ``0 ..`` in order of the pair. Each pair is one
-    integer, ``a * n + b`` with ``a < b``: a 1D sort, not a row sort."""
-    if not len(edges):
-        return np.zeros(0, dtype=np.int64)
-    a, b = edges[:, 0].astype(np.int64), edges[:, 1].astype(np.int64)
-    n = int(max(a.max(), b.max())) + 1
-    return np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_inverse=True)[1].ravel()
-
-
-def _vertex_manifold(faces: np.ndarray, rounds: int = 5) -> np.ndarray:
-    """Drop triangles so that every vertex has one fan: where two fans meet at a vertex (a
-    "bowtie", which the merge's edge test lets through), keep the fan with most triangles.
-
-    Not used for the free map: on face_human_choi the dropped fans raise its distortion
-    (0.0229 to 0.0239 rad with the mesh's normals). The disk map needs it: its boundary must
-    be one simple loop.
-    """
-    for _ in range(rounds):
-        directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-        outgoing = np.bincount(directed[_unpaired(directed), 0],
-                               minlength=faces.max(initial=-1) + 1)
-        bad = np.flatnonzero(outgoing > 1)
-        if not len(bad):
-            break
-        # The triangles at each bad vertex, in triangle order.
-        rows, cols = np.nonzero(np.isin(faces, bad))
-        at = faces[rows, cols]
-        order = np.argsort(at, kind="stable")
-        rows, at = rows[order], at[order]
-        starts = np.searchsorted(at, bad)
-        ends = np.searchsorted(at, bad, side="right")
-        drop: set[int] = set()
-        for v, a, b in zip(bad.tolist(), starts.tolist(), ends.tolist()):
-            tris = [t for t in rows[a:b].tolist() if t not in drop]
-            if not tris:
-                continue
-            drop.update(_smaller_fans(faces, v, tris))
-        faces = np.delete(faces, sorted(drop), axis=0)
-    return faces
-
-
-def _unpaired(directed: np.ndarray) -> np.ndarray:
-    """(E,) bool: the directed edges ``(a, b)`` whose reverse ``(b, a)`` is not among them
-    (boundary edges of a consistently oriented mesh)."""
-    if not len(directed):
-        return np.zeros(0, dtype=bool)
-    forward = directed[:, 0] < directed[:, 1]
-    # Grouped by undirected edge: unpaired when its group has no edge the other way.
-    group = _edge_ids(directed)
-    ahead = np.bincount(group, weights=forward)
-    back = np.bincount(group, weights=~forward)
-    return np.where(forward, back[group], ahead[group]) == 0
-
-
-def _smaller_fans(faces: np.ndarray, v: int, tris: list[int]) -> list[int]:
-    """The triangles ``tris`` around vertex ``v`` that are not in its largest fan (a fan:
-    triangles joined through edges at ``v``); none when they make one fan."""
-    parent = {t: t for t in tris}  # union-find of the triangles around v
-
-    def root(t: int) -> int:
-        while parent[t] != t:
-            parent[t] = parent[parent[t]]
-            t = parent[t]
-        return t
-
-    first: dict[int, int] = {}  # other vertex of an edge at v -> a triangle on it
-    for t in tris:
-        for w in faces[t].tolist():
-            if w == v:
-                continue
-            if w in first:
-                parent[root(t)] = root(first[w])
-            else:
-                first[w] = t
-    fans: dict[int, list[int]] = {}
-    for t in tris:
-        fans.setdefault(root(t), []).append(t)
-    biggest = max(fans.values(), key=len)
-    return [t for fan in fans.values() if fan is not biggest for t in fan]
-
-
-def _boundary_loops(faces: np.ndarray) -> list[list[int]]:
-    """Boundary loops of a vertex-manifold, consistently oriented mesh, as vertex lists."""
-    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    rim = directed[_unpaired(directed)]
-    following = dict(zip(rim[:, 0].tolist(), rim[:, 1].tolist()))  # the last edge from a
-    loops, seen = [], set()
-    for start in following:
-        if start in seen:
-            continue
-        loop, v = [], start
-        while v not in seen and v in following:
-            seen.add(v)
-            loop.append(v)
-            v = following[v]
-        if len(loop) >= 3:
-            loops.append(loop)
-    return loops
-
-
-def _signed_area(P: np.ndarray) -> float:
-    """Shoelace area of the closed polygon ``P`` (k, 2): positive when counter-clockwise."""
-    x, y = P[:, 0], P[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-
-
 def _interpolate_rest(X: np.ndarray, U: np.ndarray, known: np.ndarray) -> np.ndarray:
     """Fill the rows of ``U`` not in ``known`` with the inverse-distance mean of the map at
     their 8 nearest known points."""
@@ -516,10 +373,10 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     neighbours, normal_neighbours : int
         Nearest neighbours of each fan, and of the graph that orients estimated normals.
     normal_scales, normal_tolerance
-        The neighbourhood PCA's scales (:func:`pcgeom.cloud.adaptive_pca`): the surface test
+        The neighbourhood PCA's scales (:func:`pcgeom.neighbours.adaptive_pca`): the surface test
         and, without normals, their estimate.
     outlier : (N,) bool, optional
-        The cloud's strays (:func:`pcgeom.cloud.find_outliers`), when already found.
+        The cloud's strays (:func:`pcgeom.neighbours.find_outliers`), when already found.
 
     Returns
     -------
@@ -529,7 +386,7 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     record : dict
         The start of the run's history record: ``normals`` (``"input"`` or
         ``"estimated"``), ``neighbours``, ``faces``, ``boundary_edges``, ``outliers`` (stray
-        points, :func:`pcgeom.cloud.find_outliers`), ``unmeshed`` (points outside the mesh's
+        points, :func:`pcgeom.neighbours.find_outliers`), ``unmeshed`` (points outside the mesh's
         main part, outliers included).
 
     Raises
@@ -579,16 +436,6 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     return mesh, normals, record
 
 
-RIM_SLIVER = 2.0 * np.pi / 3.0
-"""A rim triangle whose angle opposite its rim edge is wider than this (radians) is a sliver
-that :func:`mesh_flips` leaves out (the disk map's own peel angle)."""
-
-
-def _face_keys(F: np.ndarray, n: int) -> np.ndarray:
-    """One integer per triangle of ``F`` (indices below ``n``), whatever its corners' order."""
-    return np.sort(np.asarray(F, dtype=np.int64), axis=1) @ np.array([n * n, n, 1])
-
-
 def mesh_flips(X: np.ndarray, mesh: LocalMesh, U: np.ndarray,
                dropped: np.ndarray | None = None) -> dict:
     """The triangles of the mesh's main part that the map ``U`` (N, 2) turns over, and where
@@ -601,31 +448,30 @@ def mesh_flips(X: np.ndarray, mesh: LocalMesh, U: np.ndarray,
 
     Measured on the cloud's own mesh, as a run can (the reference mesh, when a user has one,
     is what ``pcgeom evaluate`` measures), without its rim slivers: a triangle on the rim
-    whose angle opposite its rim edge is wider than :data:`RIM_SLIVER` bridges a notch of the
+    whose angle opposite its rim edge is wider than :data:`pcgeom.mesh.RIM_ANGLE` bridges a notch of the
     rim, and the disk map sends the point under it onto the circle (it peels such triangles,
-    :func:`pcgeom.maps.disk._peel_rim`), nor its flat triangles (an angle over 179 degrees:
+    :func:`pcgeom.mesh.peel_rim`), nor its flat triangles (an angle over 179 degrees:
     collinear points have no orientation). Counted, they turned over 63 of the three peaks'
     11313 triangles onto the disk, all on the rim, where the map of the true triangles turns
     over none."""
     from ..metrics import flip_locations, flipped_mask
 
     F = mesh.faces[mesh.main[mesh.faces].all(axis=1)]
-    edges, boundary = _edge_sides(F)
-    opposite = np.concatenate([F[:, 2], F[:, 0], F[:, 1]])
+    edges, boundary = edge_sides(F)
+    opposite = opposite_corners(F)
     a, b = X[edges[:, 0]] - X[opposite], X[edges[:, 1]] - X[opposite]
     cos = (a * b).sum(axis=1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1),
                                            1e-300)
     sliver = np.zeros(len(F), dtype=bool)
     face = np.arange(len(edges)) % len(F)
-    sliver[face[boundary & (cos < np.cos(RIM_SLIVER))]] = True
+    sliver[face[boundary & (cos < np.cos(RIM_ANGLE))]] = True
     # Flat triangles (collinear points, as along a grid's straight rim) have no orientation.
     sliver[face[cos < np.cos(np.radians(179.0))]] = True
     extra = {}
     if dropped is not None:
-        gone = np.isin(_face_keys(F, len(X)), _face_keys(np.reshape(dropped, (-1, 3)), len(X)))
+        gone = np.isin(face_keys(F, len(X)), face_keys(np.reshape(dropped, (-1, 3)), len(X)))
         sliver |= gone
         extra["dropped"] = int(gone.sum())
     F = F[~sliver]
-    e1, e2 = U[F[:, 1]] - U[F[:, 0]], U[F[:, 2]] - U[F[:, 0]]
-    mask = flipped_mask(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    mask = flipped_mask(signed_areas(U, F))
     return {"count": int(mask.sum()), "faces": len(F), **flip_locations(X, F, mask), **extra}

@@ -8,7 +8,7 @@ A bare cloud has to estimate them:
 1. **PCA** (Hoppe et al., 1992): the normal at ``x_i`` is the direction of least variance of its
    ``k`` nearest neighbours. It has no sign. :func:`pcgeom.maps.localmesh.mesh_cloud` takes each point's ``k``
    from a ladder (6 to 24), the largest at which its neighbours lie nearly as flat as at the
-   flattest (:func:`pcgeom.cloud.adaptive_pca`): noise asks for many neighbours, a fold whose
+   flattest (:func:`pcgeom.neighbours.adaptive_pca`): noise asks for many neighbours, a fold whose
    facing sheet lies a couple of spacings away for few.
 2. **Orientation by propagation** (Hoppe et al.; the same idea as Open3D's
    ``orient_normals_consistent_tangent_plane``): on the k-nearest-neighbour graph, take a
@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cloud import Neighbours, local_pca
+from ..neighbours import Neighbours, local_pca
 
 __all__ = ["estimate_normals", "orient_normals"]
 

@@ -39,7 +39,9 @@ import math
 import numpy as np
 
 from ..domains import Domain
+from ..domains.base import CORNER_DEG
 from ..errors import InputError
+from ..mesh import shoelace, signed_areas
 from .disk import _harmonic_measure_disk
 
 __all__ = ["DomainDisk", "domain_disk", "riemann_onto", "simply_connected", "snap_corners", "DOMAIN_MESH_POINTS", "ROTATIONS"]
@@ -49,10 +51,6 @@ DOMAIN_MESH_POINTS = 20_000
 
 ROTATIONS = 72
 """Evenly spaced rotations the composition tries, each mirrored or not."""
-
-CORNER_DEG = 15.0
-"""A vertex of the domain's ring where it turns by more than this (degrees) is a corner: a
-rim point of the cloud is sent exactly onto it (step 5)."""
 
 _SCORE_FACES = 4000
 """Triangles of the local mesh (a fixed random subset) that judge the rotations."""
@@ -169,8 +167,7 @@ def _corner_points(ring: np.ndarray, h: float) -> np.ndarray:
 
 
 def _vertex_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
-    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    area = np.abs(signed_areas(V, F))
     return np.bincount(F.ravel(), np.repeat(area / 3.0, 3), minlength=len(V))
 
 
@@ -211,7 +208,7 @@ def domain_disk(domain: Domain, n: int = DOMAIN_MESH_POINTS, seed: int = 0) -> D
     ring = np.asarray(domain.boundary_loops()[0], dtype=np.float64)
     if np.linalg.norm(ring[0] - ring[-1]) > 0:
         ring = np.vstack([ring, ring[:1]])
-    if _signed_area(ring[:-1]) < 0:
+    if shoelace(ring[:-1]) < 0:
         ring = ring[::-1].copy()
     h = math.sqrt(domain.area / n)
     B = _ring_points(ring, 0.5 * h)
@@ -224,8 +221,7 @@ def domain_disk(domain: Domain, n: int = DOMAIN_MESH_POINTS, seed: int = 0) -> D
     shapely.prepare(polygon)
     F = Delaunay(V).simplices.astype(np.int64)
     F = F[shapely.contains(polygon, shapely.polygons(V[F]))]
-    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
-    cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    cross = 2.0 * signed_areas(V, F)
     F[cross < 0] = F[cross < 0][:, [0, 2, 1]]
     # qhull leaves flat triangles over runs of collinear rim points (straight sides).
     F = F[np.abs(cross) > 1e-9 * h * h]
@@ -285,16 +281,11 @@ def snap_corners(dd: DomainDisk, angles: np.ndarray) -> tuple[DomainDisk, float]
     return DomainDisk(dd.V, dd.F, D, dd.rim, dd.corners), float(np.abs(delta).max())
 
 
-def _signed_area(P: np.ndarray) -> float:
-    x, y = P[:, 0], P[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-
-
 def _tri_areas(P: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Unsigned areas of the triangles ``F`` of the points ``P`` (2D or 3D)."""
-    e1, e2 = P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]
     if P.shape[1] == 2:
-        return 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        return np.abs(signed_areas(P, F))
+    e1, e2 = P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]
     return 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
 
 

@@ -25,14 +25,14 @@ import numpy as np
 import torch
 
 from .._version import __version__
-from ..cloud import (Neighbours, deduplicate, find_outliers, fingerprint, normalize,
-                     validate_normals, validate_points)
+from ..cloud import deduplicate, fingerprint, normalize, validate_normals, validate_points
 from ..config import ParamConfig, get_preset
 from ..denoise import denoise_points
 from ..domains import Disk, Domain, get_domain
 from ..errors import InputError
 from ..io.points import PointCloud
 from ..io.results import ParamResult
+from ..neighbours import Neighbours, find_outliers
 from ..progress import log
 from ..train.checkpoint import load_checkpoint, save_checkpoint
 from ..train.data import TrainData
@@ -303,7 +303,7 @@ def _denoise(Xn: np.ndarray, normals, config: ParamConfig, lm_points: list) -> t
     """:func:`pcgeom.denoise.denoise_points` of the normalized cloud; landmark points (in
     place) move with their nearest cloud point, so that each still acts through the point it
     named. Returns the points, the record and, when the points did not move, their strays
-    (:func:`pcgeom.cloud.find_outliers`, for the local mesh), else None."""
+    (:func:`pcgeom.neighbours.find_outliers`, for the local mesh), else None."""
     if config.denoise.mode == "off":
         return Xn, denoise_points(Xn, config.denoise, normals)[1], None
     # One neighbour query for the strays and the noise estimate.

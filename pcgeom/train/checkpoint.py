@@ -12,8 +12,7 @@ from pathlib import Path
 
 import torch
 
-from ..cloud import _one_line
-from ..errors import InputError
+from ..errors import InputError, _one_line
 from ..io.atomic import write_atomic
 
 __all__ = ["save_checkpoint", "load_checkpoint"]

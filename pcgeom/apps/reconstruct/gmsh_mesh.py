@@ -19,8 +19,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InputError
-from ..boundary import BoundaryLoops, _signed_area2, _validate_map
-from .polygons import _polygon_area, _polygons, _resample, _split_shared
+from ...mesh import shoelace, signed_areas
+from ..boundary import BoundaryLoops
+from ..planar import validate_map
+from .polygons import _polygons, _resample, _split_shared
 
 GMSH_INSTALL = "pip install 'gmsh>=4.11'"
 GMSH_SYSTEM_LIBS = "libgl1 libglu1-mesa libxcursor1 libxft2 libxinerama1"
@@ -98,7 +100,7 @@ def _gmsh_mesh(parts: list[list[np.ndarray]], size: float,
     remap = np.full(len(Q), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
     Q, T = Q[used], remap[T]
-    flip = _signed_area2(Q, T) < 0
+    flip = signed_areas(Q, T) < 0
     T[flip] = T[flip][:, [0, 2, 1]]
     return Q, T
 
@@ -129,10 +131,10 @@ def mesh_region(U, loops: BoundaryLoops, target_vertices: int,
     T : (M, 3) int64
         Triangles, counter-clockwise in the map.
     """
-    U = _validate_map(U)
+    U = validate_map(U)
     _check_target_vertices(target_vertices)
     polygons = _polygons(U, loops)
-    area = sum(_polygon_area(p) for part in polygons for p in part)  # holes: negative
+    area = sum(shoelace(p) for part in polygons for p in part)  # holes: negative
     if area <= 0:
         raise InputError("loops: the holes cover the outer loop; the reconstruction would be empty")
     relative, density = _relative(U, relative_size)
@@ -228,7 +230,7 @@ def mesh_domain(domain, target_vertices: int, U=None,
     _check_target_vertices(target_vertices)
     loops = [np.asarray(loop, dtype=np.float64) for loop in domain.boundary_loops()]
     relative, density = (None, 1.0) if relative_size is None else _relative(
-        _validate_map(U), relative_size)
+        validate_map(U), relative_size)
 
     def polygons_at(size: float) -> list[list[np.ndarray]]:
         return _split_shared([[_resample(loop, size) for loop in loops]])

@@ -19,7 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InputError
-from ..boundary import _delaunay, _distinct_points, _validate_map
+from ...mesh import face_keys
+from ..planar import delaunay, distinct_points, validate_map
 
 
 def lift(points, U, triangles, Q) -> tuple[np.ndarray, np.ndarray]:
@@ -113,11 +114,9 @@ def _locate(U: np.ndarray, T: np.ndarray, Q: np.ndarray) -> np.ndarray:
         pass
     from scipy.spatial import Delaunay
 
-    from ...maps.localmesh import _face_keys
-
-    unique, row = _distinct_points(U)
-    delaunay = Delaunay(unique)
-    ours, theirs = _face_keys(T, len(U)), _face_keys(row[delaunay.simplices], len(U))
+    unique, row = distinct_points(U)
+    located = Delaunay(unique)
+    ours, theirs = face_keys(T, len(U)), face_keys(row[located.simplices], len(U))
     order = np.argsort(ours)
     at = np.searchsorted(ours[order], theirs)
     hit = (at < len(ours)) & (ours[order][np.minimum(at, len(ours) - 1)] == theirs)
@@ -126,12 +125,12 @@ def _locate(U: np.ndarray, T: np.ndarray, Q: np.ndarray) -> np.ndarray:
                          "not all triangles of the map's Delaunay triangulation, and "
                          "matplotlib refused them)")
     of_simplex = np.where(hit, order[np.minimum(at, len(ours) - 1)], -1)
-    simplex = delaunay.find_simplex(Q)
+    simplex = located.find_simplex(Q)
     return np.where(simplex >= 0, of_simplex[simplex], -1).astype(np.int64)
 
 
 def map_delaunay(U) -> np.ndarray:
     """The Delaunay triangles of a map ``U`` (N, 2), as its rows (a duplicated map point by
     its first row), counter-clockwise. (M, 3) int64"""
-    unique, row = _distinct_points(_validate_map(U))
-    return row[_delaunay(unique)]
+    unique, row = distinct_points(validate_map(U))
+    return row[delaunay(unique)]

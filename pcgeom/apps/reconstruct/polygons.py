@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...domains.base import CORNER_DEG
 from ...errors import InputError
 from ..boundary import BoundaryLoops
 
@@ -201,19 +202,10 @@ def _split_shared(parts: list[list[np.ndarray]]) -> list[list[np.ndarray]]:
     return out
 
 
-def _polygon_area(poly: np.ndarray) -> float:
-    x, y = poly[:, 0], poly[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-
-
-CORNER_DEG = 15.0
-"""A domain polyline's vertex where it turns by more than this is a corner, kept when the
-polyline is resampled to the element size (:func:`mesh_domain`)."""
-
-
 def _resample(loop: np.ndarray, size: float) -> np.ndarray:
     """A closed polyline (last row = first) resampled by arc length to about one point per
-    ``size``, through its corners (turns over :data:`CORNER_DEG`); at least 3 points."""
+    ``size``, through its corners (turns over :data:`pcgeom.domains.base.CORNER_DEG`); at
+    least 3 points."""
     ring = loop[:-1] if np.allclose(loop[0], loop[-1]) else loop
     d_out = np.roll(ring, -1, axis=0) - ring
     d_in = ring - np.roll(ring, 1, axis=0)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...mesh import half_edges
+
 
 def mesh_report(V, F, points) -> dict:
     """Quality of a reconstructed mesh ``(V, F)`` against its cloud ``points``.
@@ -23,7 +25,7 @@ def mesh_report(V, F, points) -> dict:
     F = np.ascontiguousarray(F, dtype=np.int64)
     P = np.asarray(points, dtype=np.float64)
     manifold = bool(igl.is_edge_manifold(F)[0])
-    half = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    half = half_edges(F)
     oriented = len(np.unique(half, axis=0)) == len(half)
     loops = igl.boundary_loop_all(F) if manifold else []
     diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...cloud import _one_line, validate_points
-from ...errors import InputError
-from ..boundary import BoundaryLoops, _validate_map
+from ...cloud import validate_points
+from ...errors import InputError, _one_line
+from ..boundary import BoundaryLoops
+from ..planar import validate_map
 from .gmsh_mesh import mesh_domain, mesh_region
 from .lifting import lift, map_delaunay
 from .report import mesh_report
@@ -82,7 +83,7 @@ def _checked_input(points, U, size: str, lambda_inv) -> tuple[np.ndarray, np.nda
     if size not in SIZES:
         raise InputError(f"size: expected one of {', '.join(SIZES)}, got {size!r}")
     P = validate_points(points, name="points")
-    U = _validate_map(U)
+    U = validate_map(U)
     if len(U) != len(P):
         raise InputError(f"U: expected {len(P)} rows (one per point), got {len(U)}")
     if size != "adaptive":
