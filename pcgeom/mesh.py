@@ -10,7 +10,8 @@ what                       function
 signed triangle areas      :func:`signed_areas` ``a_t = ((u_1 - u_0) x (u_2 - u_0)) / 2``
 polygon area (shoelace)    :func:`shoelace`
 the three edges of faces   :func:`half_edges` (3M, 2), :func:`opposite_corners` (3M,)
-undirected edges           :func:`edge_ids`, :func:`unique_edges`, :func:`edge_sides`
+undirected edges           :func:`edge_ids`, :func:`unique_edges`, :func:`edge_sides`,
+                           :func:`mean_edge`
 boundary                   :func:`unpaired`, :func:`boundary_loops`
 the main part              :func:`main_part` (joined through edges), :func:`main_faces`
 a triangle as one integer  :func:`face_keys`
@@ -26,7 +27,7 @@ import math
 import numpy as np
 
 __all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_ids",
-           "unique_edges", "edge_sides", "unpaired", "boundary_loops", "main_part",
+           "unique_edges", "mean_edge", "edge_sides", "unpaired", "boundary_loops", "main_part",
            "main_faces", "face_keys", "smaller_fans", "one_fan", "peel_rim", "RIM_ANGLE_DEG",
            "RIM_ANGLE"]
 
@@ -87,6 +88,12 @@ def unique_edges(F: np.ndarray, return_counts: bool = False):
     lexicographic order; with ``return_counts`` also how many triangles hold each, ``(E,)``
     (1 on the boundary, 2 inside a manifold)."""
     return np.unique(np.sort(half_edges(F), axis=1), axis=0, return_counts=return_counts)
+
+
+def mean_edge(P: np.ndarray, F: np.ndarray) -> float:
+    """Mean length of the undirected edges of ``F`` (each once) over the points ``P``."""
+    E = unique_edges(F)
+    return float(np.linalg.norm(P[E[:, 0]] - P[E[:, 1]], axis=1).mean())
 
 
 def edge_sides(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -19,7 +19,7 @@ import dataclasses
 
 import numpy as np
 
-from .mesh import signed_areas, unique_edges
+from .mesh import mean_edge, signed_areas
 
 __all__ = ["HeightFieldScan", "RangeScan", "PleatedSheet", "holey_heightfield", "range_scan",
            "pleated_sheet", "HEIGHT_BUMPS"]
@@ -171,11 +171,6 @@ def _unit_rows(A: np.ndarray) -> np.ndarray:
     return A / np.linalg.norm(A, axis=1, keepdims=True)
 
 
-def _mean_edge(P: np.ndarray, F: np.ndarray) -> float:
-    E = unique_edges(F)
-    return float(np.linalg.norm(P[E[:, 0]] - P[E[:, 1]], axis=1).mean())
-
-
 def _check_fraction(value, name: str, upper: float = 1.0) -> float:
     value = float(value)
     if not (0.0 <= value < upper):
@@ -263,7 +258,7 @@ def holey_heightfield(n: int = 6000, holes: int = 20, outliers: float = 0.01,
     F = F[~over_hole & (edge < 3.0 * h)]
     area2 = 2.0 * signed_areas(uv, F)
     F[area2 < 0] = F[area2 < 0][:, ::-1]  # counter-clockwise in the parameter plane
-    spacing = _mean_edge(clean, F)
+    spacing = mean_edge(clean, F)
 
     points = clean + rng.normal(scale=noise * spacing, size=clean.shape)
     n_stray = int(round(outliers * len(clean)))
@@ -513,7 +508,7 @@ def range_scan(V, F, *, viewpoint=None, resolution: tuple[int, int] = (120, 120)
     row[keep] = np.arange(len(keep))
     faces = row[T]
     clean = viewpoint + distance[keep, None] * D[keep]  # exact hit points
-    spacing = _mean_edge(clean, faces) if len(faces) else float(
+    spacing = mean_edge(clean, faces) if len(faces) else float(
         np.median(cKDTree(clean).query(clean, 2)[0][:, 1]))
 
     rng_noise = rng.normal(scale=noise * spacing, size=len(keep))
@@ -652,7 +647,7 @@ def pleated_sheet(n: int = 6000, folds: int = 4, gap: float = 2.0, *, width: flo
     F = F[np.abs(area2) > 1e-12 * width]  # collinear side points
     area2 = area2[np.abs(area2) > 1e-12 * width]
     F[area2 < 0] = F[area2 < 0][:, ::-1]
-    spacing = _mean_edge(np.column_stack([uv, np.zeros(len(uv))]), F)
+    spacing = mean_edge(np.column_stack([uv, np.zeros(len(uv))]), F)
     radius = gap * spacing / 2.0
     run = (1.0 - folds * np.pi * radius) / (folds + 1)
     if run < 1.0 / (2 * (folds + 1)):

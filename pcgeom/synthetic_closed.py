@@ -20,6 +20,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, Delaunay
 
 from .errors import InputError
+from .mesh import mean_edge, signed_areas
 
 __all__ = ["ClosedSurface", "closed_surface", "SHAPES", "SAMPLINGS"]
 
@@ -220,17 +221,9 @@ def _torus_faces(uv: np.ndarray) -> np.ndarray:
     centroid = tiled[T].mean(axis=1)
     inside = ((centroid >= 0.0) & (centroid < period)).all(axis=1)
     T = T[inside]
-    P = tiled[T]
-    a, b = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
-    ccw = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] > 0
+    ccw = signed_areas(tiled, T) > 0
     T[~ccw] = T[~ccw][:, [0, 2, 1]]
     return (T % n).astype(np.int64)
-
-
-def _mean_edge(P: np.ndarray, F: np.ndarray) -> float:
-    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    E = np.unique(np.sort(E, axis=1), axis=0)
-    return float(np.linalg.norm(P[E[:, 0]] - P[E[:, 1]], axis=1).mean())
 
 
 def closed_surface(name: str = "ellipsoid", n: int = 5000, *, sampling: str = "uniform",
@@ -275,7 +268,7 @@ def closed_surface(name: str = "ellipsoid", n: int = 5000, *, sampling: str = "u
         normals = _star_normals(name, clean)
         faces = _hull_faces(w)
         genus = 0
-    spacing = _mean_edge(clean, faces)
+    spacing = mean_edge(clean, faces)
     points = clean + rng.normal(scale=noise * spacing, size=n)[:, None] * normals
     return ClosedSurface(points=points, clean_points=clean, normals=normals, faces=faces,
                          genus=genus, spacing=spacing, name=name, sampling=sampling)

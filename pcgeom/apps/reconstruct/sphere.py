@@ -32,8 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...cloud import _one_line, validate_points
-from ...errors import InputError
+from ...cloud import validate_points
+from ...errors import InputError, _one_line
 from .gmsh_mesh import _check_target_vertices, _first_size, _mesh_to_target, require_gmsh
 from .report import mesh_report
 
