@@ -94,8 +94,11 @@ def angle_distortion(V, F, U) -> AngleReport:
         Vertices of the reference surface.
     F : (M, 3) array_like of int
         Triangles, indices into ``V``.
-    U : (N, 2) array_like
-        The map: one 2D point per row of ``V``.
+    U : (N, 2) or (N, 3) array_like
+        The map: one 2D point per row of ``V``, or a sphere map's unit vector. On the
+        sphere the angles are those of the chord triangles (the triangles of ``F`` with the
+        unit vectors as corners) and a triangle's orientation is its orientation against the
+        centre, the sign of ``det[U_a, U_b, U_c]`` (a mirrored map has no flips either).
 
     Returns
     -------
@@ -115,7 +118,8 @@ def angle_distortion(V, F, U) -> AngleReport:
         libigl is not installed.
     """
     V = _as_points(V, "V", 3)
-    U = _as_points(U, "U", 2, rows=len(V))
+    sphere = np.ndim(U) == 2 and np.shape(U)[1] == 3
+    U = _as_points(U, "U", 3 if sphere else 2, rows=len(V))
     F = validate_faces(F, len(V), name="F", allow_empty=False)
     igl = _import_igl()
 
@@ -123,9 +127,14 @@ def angle_distortion(V, F, U) -> AngleReport:
     F = np.ascontiguousarray(F)
     U = np.ascontiguousarray(U)
     a3 = _defined(igl.internal_angles(V, F))  # (M, 3)
-    a2 = _defined(igl.internal_angles(np.column_stack([U, np.zeros(len(U))]), F))  # (M, 3)
+    flat = U if sphere else np.column_stack([U, np.zeros(len(U))])
+    a2 = _defined(igl.internal_angles(flat, F))  # (M, 3)
     diff = np.abs(a3 - a2)
-    mask = flipped_mask(signed_areas(U, F))
+    if sphere:  # (M,) six times the signed volume of the tetrahedron with the centre
+        signed = np.einsum("ij,ij->i", U[F[:, 0]], np.cross(U[F[:, 1]], U[F[:, 2]]))
+    else:
+        signed = signed_areas(U, F)
+    mask = flipped_mask(signed)
     return AngleReport(float(diff.mean()), int(mask.sum()), len(F), diff,
                        flip_locations(V, F, mask))
 

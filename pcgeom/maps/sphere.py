@@ -1,0 +1,308 @@
+"""The spherical conformal map of a closed genus-0 surface: :func:`spherical_conformal` on a
+mesh, :func:`sphere_map` as a run on a bare cloud (its local mesh).
+
+The method is Choi, Lam and Lui's linear one ("Fast spherical quasiconformal parameterization
+of genus-0 closed surfaces with application to adaptive remeshing", 2015), with two changes
+that make it bijective:
+
+1. **Puncture.** The most regular triangle ``t`` is removed; the rest is a topological disk
+   bounded by ``t``'s three vertices, placed on a planar triangle of ``t``'s shape.
+2. **Planar harmonic map** of the punctured mesh, ``L z = 0`` inside, the cotangent weights
+   clamped below at ``CLAMP`` times their median (Choi et al. keep negative weights). With
+   positive weights and a convex boundary every vertex is a convex combination of its
+   neighbours, which by Tutte's and Floater's theorem embeds the disk with no triangle turned
+   over; the clamp moves only the weights of non-Delaunay edges.
+3. **Inverse stereographic projection** from the north pole, scaled so that the big
+   triangle near the north pole and the smallest one near the south pole have the same size
+   (their geometric mean, as Choi et al.).
+4. **South-pole correction.** Projected again from the south pole, the distorted region
+   around ``t`` lies near the origin of a new plane; the points nearest the south pole
+   (``FIXED_FRACTION`` of them) keep their place and the rest solve the linear Beltrami
+   system (Lui et al.'s LBS) with the Beltrami coefficient ``mu`` of that plane's map of the
+   surface, so that the composition is conformal there too. ``mu`` is scaled by the largest
+   ``s`` in ``[0, 1]`` (bisection) whose solution turns no triangle over: at ``s = 0`` the
+   solution is the projection itself (the LBS matrix of ``mu = 0`` is the plane's cotangent
+   Laplacian, which reproduces linear functions), so the step never adds a flip.
+5. **Moebius normalisation.** The map is composed with Moebius transformations of the sphere
+   (:func:`mobius_centre`) until the surface's area, carried by its points to the sphere,
+   has its centre at the origin.
+
+Flips are counted on chord triangles (the mesh's triangles with the mapped unit vectors as
+corners): a triangle is turned over when ``det[p_a, p_b, p_c] <= 0``, its orientation
+against the centre (:func:`sphere_flips`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import InputError
+from ._sparse import solver_name, spd_factor
+
+__all__ = ["spherical_conformal", "mobius_centre", "sphere_flips", "mesh_topology",
+           "sphere_map", "stereographic", "inverse_stereographic", "FIXED_FRACTION", "CLAMP"]
+
+FIXED_FRACTION = 0.1
+"""Points nearest the south pole that keep their place in the south-pole correction (Choi et
+al.'s tenth)."""
+
+CLAMP = 1e-3
+"""Cotangent weights below this times their median are raised to it (step 2)."""
+
+
+def stereographic(S: np.ndarray) -> np.ndarray:
+    """The projection from the south pole of unit vectors ``S`` (N, 3) onto the plane
+    ``z = 0``: ``(x, y) / (1 + z)``, complex (N,). The north pole goes to 0."""
+    return (S[:, 0] + 1j * S[:, 1]) / (1.0 + S[:, 2])
+
+
+def inverse_stereographic(z: np.ndarray, *, north: bool = True) -> np.ndarray:
+    """Unit vectors (N, 3) of complex points ``z`` (N,): with ``north`` the inverse of the
+    projection from the north pole (``|z| -> inf`` at the north pole), else from the south pole
+    (the inverse of :func:`stereographic`)."""
+    r2 = np.abs(z) ** 2
+    h = (r2 - 1.0) if north else (1.0 - r2)
+    return np.column_stack([2.0 * z.real, 2.0 * z.imag, h]) / (1.0 + r2)[:, None]
+
+
+def sphere_flips(S: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(M,) bool: the chord triangles of ``F`` (M, 3) on the unit vectors ``S`` (N, 3) turned
+    over, ``det[S_a, S_b, S_c] <= 0`` (seen from outside, counter-clockwise is positive)."""
+    a, b, c = S[F[:, 0]], S[F[:, 1]], S[F[:, 2]]
+    return np.einsum("ij,ij->i", a, np.cross(b, c)) <= 0.0
+
+
+def mesh_topology(F: np.ndarray, n: int | None = None) -> dict:
+    """Euler characteristic, boundary loops and genus of the mesh ``F`` (M, 3).
+
+    ``euler = V - E + F`` over the vertices that triangles use, ``boundary_loops`` counted
+    by :func:`pcgeom.maps.localmesh._boundary_loops`, ``genus = (2 - euler - loops) / 2``
+    (one connected part), ``closed`` when no edge has one triangle only."""
+    from .localmesh import _boundary_loops, _edge_ids
+
+    F = np.asarray(F, dtype=np.int64)
+    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    ids = _edge_ids(edges)
+    uses = np.bincount(ids)
+    n_v = len(np.unique(F))
+    euler = n_v - len(uses) + len(F)
+    loops = len(_boundary_loops(F)) if (uses == 1).any() else 0
+    return {"euler": int(euler), "boundary_loops": int(loops), "closed": bool((uses == 1).sum() == 0),
+            "genus": int((2 - euler - loops) // 2), "vertices": int(n_v)}
+
+
+def _regular_triangle(V: np.ndarray, F: np.ndarray) -> int:
+    """The triangle whose edge lengths are closest to a third of its perimeter each."""
+    e = np.stack([np.linalg.norm(V[F[:, (k + 1) % 3]] - V[F[:, (k + 2) % 3]], axis=1)
+                  for k in range(3)], axis=1)  # (M, 3)
+    share = e / np.maximum(e.sum(axis=1, keepdims=True), 1e-300)
+    return int(np.argmin(np.abs(share - 1.0 / 3.0).sum(axis=1)))
+
+
+def _disk_harmonic(V: np.ndarray, F: np.ndarray, big: int) -> np.ndarray:
+    """Steps 1-2: the punctured mesh's harmonic map, complex (N,), the big triangle's corners
+    on a triangle of its shape, cotangent weights clamped positive."""
+    import igl
+    import scipy.sparse as sp
+
+    n = len(V)
+    p = F[big]
+    W = sp.csr_matrix(igl.cotmatrix(V, F))  # off-diagonal: the cotangent weights
+    W.setdiag(0.0)
+    W.eliminate_zeros()
+    floor = CLAMP * float(np.median(np.abs(W.data))) if W.nnz else 0.0
+    W.data = np.maximum(W.data, floor)
+    L = sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W  # positive semi-definite
+    a, b = V[p[1]] - V[p[0]], V[p[2]] - V[p[0]]
+    la = np.linalg.norm(a)
+    x3 = float(a @ b) / la
+    y3 = float(np.linalg.norm(np.cross(a, b))) / la
+    corners = np.array([0.0, la, x3 + 1j * y3])
+    free = np.setdiff1d(np.arange(n), p)
+    z = np.zeros(n, dtype=complex)
+    z[p] = corners
+    solve = spd_factor(L[free][:, free].tocsc())
+    rhs = -(L[free][:, p] @ corners)
+    z[free] = solve(np.ascontiguousarray(rhs.real)) + 1j * solve(np.ascontiguousarray(rhs.imag))
+    return z
+
+
+def _beltrami(P: np.ndarray, F: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """Per triangle, the Beltrami coefficient of the plane's map ``P`` (complex (N,)) of the
+    surface ``V`` (N, 3): ``mu = (E - G + 2iF) / (E + G + 2 sqrt(EG - F^2))`` from the first
+    fundamental form of ``V`` in the plane's coordinates (M,) complex."""
+    x, y = P.real, P.imag
+    i, j, k = F[:, 0], F[:, 1], F[:, 2]
+    # Gradients of the linear interpolant on each planar triangle.
+    e1x, e1y = x[k] - x[j], y[k] - y[j]
+    e2x, e2y = x[i] - x[k], y[i] - y[k]
+    e3x, e3y = x[j] - x[i], y[j] - y[i]
+    area2 = e1x * e2y - e1y * e2x  # twice the signed area
+    area2 = np.where(np.abs(area2) > 1e-300, area2, 1e-300)
+    dx = np.stack([e1y, e2y, e3y], axis=1) / area2[:, None]  # (M, 3) d/du of each corner
+    dy = -np.stack([e1x, e2x, e3x], axis=1) / area2[:, None]
+    Vf = V[F]  # (M, 3, 3)
+    Xu = np.einsum("mk,mkd->md", dx, Vf)
+    Xv = np.einsum("mk,mkd->md", dy, Vf)
+    E = (Xu * Xu).sum(axis=1)
+    G = (Xv * Xv).sum(axis=1)
+    Fm = (Xu * Xv).sum(axis=1)
+    return (E - G + 2j * Fm) / (E + G + 2.0 * np.sqrt(np.maximum(E * G - Fm ** 2, 0.0)))
+
+
+def _lbs_matrix(P: np.ndarray, F: np.ndarray, mu: np.ndarray):
+    """The stiffness matrix (N, N), positive semi-definite, of the linear Beltrami solver on
+    the planar mesh ``(P, F)`` with coefficients ``mu`` (M,): its null-space-free solutions
+    with fixed points are the maps whose Beltrami coefficient is ``mu`` (Lui et al.)."""
+    import scipy.sparse as sp
+
+    m2 = np.abs(mu) ** 2
+    af = (1.0 - 2.0 * mu.real + m2) / (1.0 - m2)
+    bf = -2.0 * mu.imag / (1.0 - m2)
+    gf = (1.0 + 2.0 * mu.real + m2) / (1.0 - m2)
+    x, y = P.real, P.imag
+    f0, f1, f2 = F[:, 0], F[:, 1], F[:, 2]
+    ux = [y[f1] - y[f2], y[f2] - y[f0], y[f0] - y[f1]]
+    uy = [x[f2] - x[f1], x[f0] - x[f2], x[f1] - x[f0]]
+    area = 0.5 * np.abs(uy[2] * ux[1] - uy[1] * ux[2])  # |e x e'| / 2 of the triangle
+    area = np.maximum(area, 1e-300)
+
+    def entry(a, b):
+        return (af * ux[a] * ux[b] + bf * (ux[a] * uy[b] + ux[b] * uy[a])
+                + gf * uy[a] * uy[b]) / area
+
+    rows, cols, vals = [], [], []
+    for a in range(3):
+        for b in range(3):
+            rows.append(F[:, a])
+            cols.append(F[:, b])
+            vals.append(0.5 * entry(a, b))
+    n = len(P)
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(n, n))
+
+
+def _planar_flips(P: np.ndarray, F: np.ndarray) -> int:
+    """Triangles of ``F`` whose orientation in the plane (complex ``P``) is not the
+    majority's, or zero."""
+    e1, e2 = P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]
+    cross = (np.conj(e1) * e2).imag
+    major = 1.0 if (cross > 0).sum() >= (cross < 0).sum() else -1.0
+    return int((np.sign(cross) != major).sum())
+
+
+def _south_correction(V: np.ndarray, F: np.ndarray, S: np.ndarray, *, rounds: int = 6
+                      ) -> tuple[np.ndarray, float]:
+    """Step 4: returns the corrected unit vectors and the scale ``s`` of ``mu`` kept."""
+    n = len(V)
+    order = np.argsort(S[:, 2])
+    fixed = order[:max(3, int(round(FIXED_FRACTION * n)))]
+    free = np.setdiff1d(np.arange(n), fixed)
+    P = stereographic(S)
+    # The triangles touching the fixed set keep their corners' orientation by construction
+    # only where all three are fixed; the flip test looks at the others.
+    tested = F[~np.isin(F, fixed).all(axis=1)]
+    mu = _beltrami(P, F, V)
+    mu = np.where(np.isfinite(mu), mu, 0.0)
+    mu *= np.minimum(1.0, 0.99 / np.maximum(np.abs(mu), 1e-300))  # |mu| < 1
+
+    def solve(s: float) -> np.ndarray:
+        K = _lbs_matrix(P, F, s * mu)
+        Kff = K[free][:, free].tocsc()
+        rhs = -(K[free][:, fixed] @ P[fixed])
+        factor = spd_factor(Kff)
+        out = P.copy()
+        out[free] = (factor(np.ascontiguousarray(rhs.real))
+                     + 1j * factor(np.ascontiguousarray(rhs.imag)))
+        return out
+
+    base = _planar_flips(P, tested)
+    Q = solve(1.0)
+    if _planar_flips(Q, tested) <= base and np.isfinite(Q).all():
+        return inverse_stereographic(Q, north=False), 1.0
+    lo, hi, best = 0.0, 1.0, P
+    for _ in range(rounds):
+        mid = 0.5 * (lo + hi)
+        Q = solve(mid)
+        if np.isfinite(Q).all() and _planar_flips(Q, tested) <= base:
+            lo, best = mid, Q
+        else:
+            hi = mid
+    return inverse_stereographic(best, north=False), lo
+
+
+def vertex_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(N,) a third of the area of the triangles at each vertex (barycentric areas)."""
+    area = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]),
+                                axis=1)
+    return np.bincount(F.ravel(), weights=np.repeat(area / 3.0, 3), minlength=len(V))
+
+
+def mobius_centre(S: np.ndarray, weights: np.ndarray | None = None, *, tol: float = 1e-9,
+                  rounds: int = 200) -> tuple[np.ndarray, int]:
+    """Compose the sphere map ``S`` (N, 3) with Moebius transformations until the weighted
+    centre ``c = sum w_i S_i / sum w_i`` is at the origin (``|c| < tol``).
+
+    Each round applies the ball automorphism that sends ``c`` to the origin,
+    ``phi_c(x) = (1 - |c|^2) (x - c) / |x - c|^2 - c`` (it maps the unit sphere onto itself,
+    conformally, and moves mass away from ``c``'s side); the centre of the result is again
+    computed. Returns the map and the rounds made."""
+    w = np.ones(len(S)) if weights is None else np.asarray(weights, dtype=np.float64)
+    w = w / w.sum()
+    for k in range(rounds):
+        c = w @ S
+        if np.linalg.norm(c) < tol:
+            return S, k
+        d = S - c
+        S = (1.0 - c @ c) * d / (d * d).sum(axis=1, keepdims=True) - c
+        S /= np.linalg.norm(S, axis=1, keepdims=True)
+    return S, rounds
+
+
+def spherical_conformal(V, F, *, correct: bool = True, centre: bool = True,
+                        stats: dict | None = None) -> np.ndarray:
+    """A bijective spherical conformal map of the closed genus-0 mesh ``(V, F)``.
+
+    Steps 1-5 of the module. ``correct=False`` skips the south-pole correction, ``centre=False``
+    the Moebius normalisation. ``stats``, when given, receives ``mu_scale`` (the correction's
+    kept scale), ``mobius_rounds`` and ``flips`` (chord triangles turned over).
+
+    Parameters
+    ----------
+    V : (N, 3) float64
+    F : (M, 3) int64
+        Consistently oriented, closed, genus 0 (:func:`mesh_topology`); every vertex used.
+
+    Returns
+    -------
+    (N, 3) float64
+        Unit vectors; counter-clockwise triangles of ``F`` seen from outside stay so.
+    """
+    V = np.ascontiguousarray(V, dtype=np.float64)
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    big = _regular_triangle(V, F)
+    z = _disk_harmonic(V, F, big)
+    z = z - z.mean()
+    # Scale: the big triangle (north) and the innermost one (south) the same size on the
+    # sphere (Choi et al.).
+    side = np.abs(z[F] - z[np.roll(F, 1, axis=1)]).mean(axis=1)
+    inner = np.argsort(np.abs(z[F]).sum(axis=1))
+    inner = int(inner[0] if inner[0] != big else inner[1])
+    w = stereographic(inverse_stereographic(z))
+    south = float(np.abs(w[F[inner]] - w[np.roll(F[inner], 1)]).mean())
+    north = float(side[big])
+    z = z * np.sqrt(north * south) / north
+    S = inverse_stereographic(z)
+    scale = 0.0
+    if correct:
+        S, scale = _south_correction(V, F, S)
+    if (~sphere_flips(S, F)).sum() < 0.5 * len(F):  # the boundary placed the other way round
+        S[:, 2] = -S[:, 2]
+    rounds = 0
+    if centre:
+        S, rounds = mobius_centre(S, vertex_areas(V, F))
+    if stats is not None:
+        stats.update(mu_scale=scale, mobius_rounds=rounds, flips=int(sphere_flips(S, F).sum()))
+    return S
