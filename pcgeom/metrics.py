@@ -13,7 +13,7 @@ import numpy as np
 from .cloud import validate_faces
 from .mesh import signed_areas, unique_edges
 
-__all__ = ["angle_distortion", "AngleReport", "flip_locations", "flipped_mask", "hausdorff",
+__all__ = ["angle_distortion", "AngleReport", "area_factor", "flip_locations", "flipped_mask", "hausdorff",
            "domain_hausdorff", "surface_hausdorff"]
 
 
@@ -137,6 +137,32 @@ def angle_distortion(V, F, U) -> AngleReport:
     mask = flipped_mask(signed)
     return AngleReport(float(diff.mean()), int(mask.sum()), len(F), diff,
                        flip_locations(V, F, mask))
+
+
+def area_factor(V, F, U) -> np.ndarray:
+    """The conformal factor of a map ``U`` of the mesh ``(V, F)`` at each vertex: the square
+    root of the ratio of the mapped to the 3D area of the triangles at the vertex, each
+    normalised by its total, ``sqrt((A_U(v) / A_U) / (A_V(v) / A_V))`` (1 where the map
+    keeps the surface's share of area; a conformal map scales lengths by it).
+
+    ``U`` is (N, 2) or, for a sphere map, (N, 3) (the chord triangles' areas). (N,) float64,
+    NaN at a vertex of no triangle."""
+    V = np.asarray(V, dtype=np.float64)
+    U = np.asarray(U, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    if U.shape[1] == 2:
+        U = np.column_stack([U, np.zeros(len(U))])
+
+    def at_vertices(P: np.ndarray) -> np.ndarray:
+        a = 0.5 * np.linalg.norm(np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]),
+                                 axis=1)
+        per = np.bincount(F.ravel(), weights=np.repeat(a, 3), minlength=len(P))
+        return per / max(a.sum(), 1e-300)
+
+    mapped, surface = at_vertices(U), at_vertices(V)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(surface > 0, np.sqrt(mapped / np.where(surface > 0, surface, 1.0)),
+                        np.nan)
 
 
 def flipped_mask(signed: np.ndarray) -> np.ndarray:

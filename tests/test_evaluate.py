@@ -130,6 +130,7 @@ def test_plot_evaluation_writes_the_figures(tmp_path):
     evaluation = evaluate_map(U, V, F, history=history)
     written = plot_evaluation(evaluation, tmp_path / "figs", title="peaks3")
     assert set(written) == set(PLOT_FILES)
+    assert written.pop("sphere_factor") is None  # a planar map
     for key, path in written.items():
         assert path == tmp_path / "figs" / PLOT_FILES[key]
         assert path.read_bytes()[:8] == PNG_SIGNATURE

@@ -1,6 +1,9 @@
 """Classical maps to compare against: libigl's LSCM and harmonic disk map, and the meshless
 workaround users reach for (best-fit plane, Delaunay, LSCM).
 
+On a closed genus-0 mesh, the anchor of a map onto the sphere is :func:`sphere_conformal`, the
+spherical conformal map pcgeom makes of a cloud's local mesh, made of the true mesh instead.
+
 The first two need the true mesh (and, for the harmonic map, its boundary loop); they are the
 reference figures of BENCHMARKS.md and the notebooks, not something pcgeom needs to run.
 """
@@ -11,7 +14,8 @@ import numpy as np
 
 from ..cloud import validate_faces, validate_points
 
-__all__ = ["lscm", "harmonic_disk", "plane_delaunay_lscm", "BASELINES"]
+__all__ = ["lscm", "harmonic_disk", "plane_delaunay_lscm", "sphere_conformal", "BASELINES",
+           "SPHERE_BASELINES"]
 
 
 def _igl():
@@ -109,3 +113,33 @@ BASELINES = {
                             lambda V, F: plane_delaunay_lscm(V)),
 }
 """name -> (label, needs a mesh?, domain it maps onto, function of (V, F))."""
+
+
+def sphere_conformal(V, F) -> np.ndarray:
+    """The spherical conformal map of the closed genus-0 mesh ``(V, F)``
+    (:func:`pcgeom.maps.sphere.spherical_conformal`: Choi, Lam and Lui's linear method made
+    bijective, Moebius-centred), the mesh anchor of a sphere map. The mesh is oriented
+    outward first (its enclosed volume positive).
+
+    Returns
+    -------
+    (N, 3) float64
+        Unit vectors.
+
+    Raises
+    ------
+    ValueError
+        The mesh is open or of genus above 0 (an ``InputError``).
+    """
+    from ..maps.sphere import outward, spherical_conformal
+
+    V = np.ascontiguousarray(validate_points(V, name="V"))
+    F = np.ascontiguousarray(validate_faces(F, len(V), name="F", allow_empty=False))
+    return spherical_conformal(V, outward(V, F))
+
+
+SPHERE_BASELINES = {
+    "sphere_conformal": ("spherical conformal map (pcgeom's method, true mesh)", "yes",
+                         "sphere", lambda V, F: sphere_conformal(V, F)),
+}
+"""The baselines of a map onto the sphere, as :data:`BASELINES`."""

@@ -17,10 +17,12 @@ import numpy as np
 
 from ..domains import Domain
 from ..errors import _one_line
-from ..metrics import AngleReport, angle_distortion, domain_hausdorff, surface_hausdorff
-from .baselines import BASELINES
+from ..metrics import (AngleReport, angle_distortion, area_factor, domain_hausdorff,
+                       surface_hausdorff)
+from .baselines import BASELINES, SPHERE_BASELINES
 
-__all__ = ["map_report", "angle_figures", "landmark_hausdorff", "EVALUATION_BASELINES",
+__all__ = ["map_report", "angle_figures", "factor_figures", "landmark_hausdorff",
+           "EVALUATION_BASELINES", "SPHERE_EVALUATION_BASELINES",
            "BaselineRun", "run_baselines", "Evaluation", "evaluate_map",
            "vertex_angle_distortion", "PLOT_FILES", "plot_evaluation", "plot_angle_histograms"]
 
@@ -32,9 +34,19 @@ EVALUATION_BASELINES = ("lscm", "harmonic_disk")
 """The baselines :func:`evaluate_map` runs by default: the mesh-based maps of
 :data:`pcgeom.apps.baselines.BASELINES`."""
 
+SPHERE_EVALUATION_BASELINES = ("sphere_conformal",)
+"""The baselines :func:`evaluate_map` runs by default for a map onto the sphere: the
+spherical conformal map of the reference mesh itself
+(:data:`pcgeom.apps.baselines.SPHERE_BASELINES`)."""
+
+_ALL_BASELINES = {**BASELINES, **SPHERE_BASELINES}
+
 PLOT_FILES = {"angles": "angle_histogram.png", "map": "map_angle_distortion.png",
-              "checker": "surface_checker.png", "history": "history.png"}
-"""The figures :func:`plot_evaluation` writes into its directory, by key."""
+              "checker": "surface_checker.png", "history": "history.png",
+              "sphere_factor": "sphere_conformal_factor.png"}
+"""The figures :func:`plot_evaluation` writes into its directory, by key (a sphere map: ``map``
+is the sphere coloured by angle distortion, ``sphere_factor`` by the conformal factor, each
+with its equirectangular picture; ``checker`` is not drawn)."""
 
 
 def angle_figures(angles: AngleReport | None) -> dict:
@@ -66,14 +78,26 @@ def landmark_hausdorff(history) -> list[float] | None:
 
 
 def _report(U: np.ndarray, domain: Domain | None, angles: AngleReport | None,
-            history, F=None) -> dict:
+            history, F=None, V=None) -> dict:
     report = {"n_points": int(len(U)), **angle_figures(angles), "domain_hausdorff": None,
               "surface_hausdorff": None, "landmark_hausdorff": landmark_hausdorff(history)}
-    if domain is not None and domain.bounded:
+    if domain is not None and domain.bounded and not domain.closed:
         report["domain_hausdorff"] = domain_hausdorff(U, domain)
         if F is not None:
             report["surface_hausdorff"] = surface_hausdorff(U, F, domain)
+    if U.shape[1] == 3 and angles is not None and V is not None:
+        report["conformal_factor"] = factor_figures(area_factor(V, F, U))
     return report
+
+
+def factor_figures(factor: np.ndarray) -> dict:
+    """The spread of a conformal factor (:func:`pcgeom.metrics.area_factor`, per vertex):
+    its 5th, 50th and 95th percentiles and ``spread``, the 95th over the 5th."""
+    f = factor[np.isfinite(factor) & (factor > 0)]
+    if not len(f):
+        return {"p5": None, "median": None, "p95": None, "spread": None}
+    p5, p50, p95 = (float(x) for x in np.percentile(f, [5, 50, 95]))
+    return {"p5": p5, "median": p50, "p95": p95, "spread": p95 / p5}
 
 
 def map_report(U, domain: Domain | None = None, V=None, F=None, history=None) -> dict:
@@ -82,10 +106,11 @@ def map_report(U, domain: Domain | None = None, V=None, F=None, history=None) ->
     Parameters
     ----------
     U : (N, 2) array_like
-        The map.
+        The map; (N, 3) unit vectors onto the sphere.
     domain : Domain, optional
-        Its parameter domain; a bounded one adds ``domain_hausdorff``, and with faces
-        ``surface_hausdorff``.
+        Its parameter domain; a bounded planar one adds ``domain_hausdorff``, and with faces
+        ``surface_hausdorff``; a sphere map with faces adds ``conformal_factor``
+        (:func:`factor_figures`).
     V, F : (N, 3) and (M, 3) array_like, optional
         Reference mesh (one vertex per row of ``U``); adds the angle distortion and flips.
     history : list of dict, optional
@@ -106,7 +131,7 @@ def map_report(U, domain: Domain | None = None, V=None, F=None, history=None) ->
     """
     U = np.asarray(U, dtype=np.float64)
     angles = angle_distortion(V, F, U) if F is not None else None
-    return _report(U, domain, angles, history, F)
+    return _report(U, domain, angles, history, F, V)
 
 
 @dataclass(frozen=True)
@@ -141,7 +166,7 @@ def run_baselines(V, F, names=EVALUATION_BASELINES) -> list[BaselineRun]:
     V : (N, 3) array_like
     F : (M, 3) array_like of int
     names : sequence of str
-        Keys of :data:`pcgeom.apps.baselines.BASELINES`.
+        Keys of :data:`pcgeom.apps.baselines.BASELINES` or ``SPHERE_BASELINES``.
 
     Returns
     -------
@@ -156,13 +181,13 @@ def run_baselines(V, F, names=EVALUATION_BASELINES) -> list[BaselineRun]:
         libigl is not installed.
     """
     names = list(names)
-    unknown = [n for n in names if n not in BASELINES]
+    unknown = [n for n in names if n not in _ALL_BASELINES]
     if unknown:
         raise ValueError(f"baselines: unknown {unknown[0]!r}; expected some of "
-                         f"{', '.join(BASELINES)}")
+                         f"{', '.join(_ALL_BASELINES)}")
     runs = []
     for name in names:
-        label, _, _, method = BASELINES[name]
+        label, _, _, method = _ALL_BASELINES[name]
         t0 = time.perf_counter()
         try:
             U = method(V, F)
@@ -195,7 +220,7 @@ class Evaluation:
 
 
 def evaluate_map(U, V, F, domain: Domain | None = None, history=None,
-                 baselines=EVALUATION_BASELINES) -> Evaluation:
+                 baselines=None) -> Evaluation:
     """Everything ``pcgeom evaluate`` reports on a map ``U`` of the mesh ``(V, F)``.
 
     Parameters
@@ -209,16 +234,20 @@ def evaluate_map(U, V, F, domain: Domain | None = None, history=None,
         The map's domain (``ParamResult.domain``).
     history : list of dict, optional
         ``ParamResult.history``.
-    baselines : sequence of str
-        Baselines run on ``(V, F)`` (:func:`run_baselines`); empty for none.
+    baselines : sequence of str, optional
+        Baselines run on ``(V, F)`` (:func:`run_baselines`); empty for none. Default:
+        :data:`SPHERE_EVALUATION_BASELINES` for a sphere map, else
+        :data:`EVALUATION_BASELINES`.
 
     Returns
     -------
     Evaluation
     """
     U = np.asarray(U, dtype=np.float64)
+    if baselines is None:
+        baselines = SPHERE_EVALUATION_BASELINES if U.shape[1] == 3 else EVALUATION_BASELINES
     angles = angle_distortion(V, F, U)
-    report = _report(U, domain, angles, history, F)
+    report = _report(U, domain, angles, history, F, V)
     runs = tuple(run_baselines(V, F, baselines))
     report["baselines"] = {run.name: run.to_dict() for run in runs}
     return Evaluation(report, angles, runs, U, np.asarray(F, dtype=np.int64), domain,
@@ -284,6 +313,8 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
     out_dir = Path(out_dir)
     out_dir.mkdir(exist_ok=True)
     prefix = f"{title}: " if title else ""
+    if evaluation.uv.shape[1] == 3:
+        return _plot_sphere_evaluation(evaluation, out_dir, prefix)
     written = {
         "angles": plot_angle_histogram(
             evaluation.angles.per_corner, out_dir / PLOT_FILES["angles"],
@@ -296,6 +327,7 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
             title=f"{prefix}angle distortion per vertex (rad)"),
         "checker": None,
         "history": None,
+        "sphere_factor": None,
     }
     if evaluation.points is not None:
         written["checker"] = plot_checker(
@@ -303,6 +335,37 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
             out_dir / PLOT_FILES["checker"], squares=squares,
             values=evaluation.angles.per_corner.mean(axis=1),
             value_label="angle distortion per triangle (rad)", title=title)
+    if evaluation.history:
+        written["history"] = plot_history(evaluation.history, out_dir / PLOT_FILES["history"],
+                                          title=f"{prefix}loss per stage")
+    return written
+
+
+def _plot_sphere_evaluation(evaluation: Evaluation, out_dir: Path, prefix: str) -> dict:
+    """:func:`plot_evaluation` of a sphere map: the histograms, the sphere coloured by
+    angle distortion (``map``) and by the conformal factor (``sphere_factor``), each with
+    its equirectangular picture, and the history."""
+    from .plot import plot_angle_histogram, plot_history, plot_sphere
+
+    n = len(evaluation.uv)
+    written = {
+        "angles": plot_angle_histogram(
+            evaluation.angles.per_corner, out_dir / PLOT_FILES["angles"],
+            title=f"{prefix}angle distortion", others=_baseline_histograms(evaluation)),
+        "map": plot_sphere(
+            evaluation.uv, out_dir / PLOT_FILES["map"],
+            values=vertex_angle_distortion(evaluation.faces, evaluation.angles.per_corner, n),
+            title=f"{prefix}angle distortion per vertex", value_label="radians"),
+        "checker": None,
+        "history": None,
+        "sphere_factor": None,
+    }
+    if evaluation.points is not None:
+        written["sphere_factor"] = plot_sphere(
+            evaluation.uv, out_dir / PLOT_FILES["sphere_factor"],
+            values=area_factor(evaluation.points, evaluation.faces, evaluation.uv),
+            title=f"{prefix}conformal factor (mapped over surface area share, square root)",
+            value_label="conformal factor", log=True)
     if evaluation.history:
         written["history"] = plot_history(evaluation.history, out_dir / PLOT_FILES["history"],
                                           title=f"{prefix}loss per stage")

@@ -22,7 +22,7 @@ from ..io.atomic import write_atomic
 from ..mesh import half_edges
 from ..train.objective import LOSS_TERMS
 
-__all__ = ["plot_map", "plot_domain", "plot_history", "plot_angle_histogram", "plot_boundary",
+__all__ = ["plot_map", "plot_sphere", "plot_domain", "plot_history", "plot_angle_histogram", "plot_boundary",
            "plot_boundary_h_sweep", "plot_checker"]
 
 
@@ -104,6 +104,85 @@ def plot_map(U, path, values=None, domain=None, title: str | None = None) -> Pat
     ax.set_ylabel("v")
     if title:
         ax.set_title(title)
+    return _save_png_atomic(fig, path)
+
+
+def plot_sphere(S, path, values=None, title: str | None = None,
+                value_label: str | None = None, log: bool = False) -> Path:
+    """A map onto the sphere in three panels: the northern hemisphere seen from above, the
+    southern seen from below (both orthographic, as seen from outside), and the whole
+    sphere in equirectangular coordinates (longitude ``atan2(y, x)``, latitude
+    ``asin(z)``), the points coloured by ``values``.
+
+    Parameters
+    ----------
+    S : (N, 3) array_like
+        Unit vectors.
+    path : str or os.PathLike
+        Output ``.png`` file, written atomically.
+    values : (N,) array_like, optional
+        Colour of each point; NaN points are grey. Uniform colour when omitted.
+    value_label : str, optional
+        The colourbar's label.
+    log : bool
+        Colour by ``values`` on a logarithmic scale (positive values: a conformal factor).
+
+    Raises
+    ------
+    ValueError
+        ``S`` not (N, 3) with N >= 1 or not finite, ``values`` not (N,), or a path without
+        the ``.png`` extension.
+    """
+    from matplotlib.colors import LogNorm
+    from matplotlib.patches import Circle
+
+    S = np.asarray(S, dtype=np.float64)
+    if S.ndim != 2 or S.shape[1] != 3 or len(S) == 0:
+        raise ValueError(f"S: expected shape (N, 3) with N >= 1, got {S.shape}")
+    if not np.isfinite(S).all():
+        raise ValueError("S: contains NaN or inf")
+    S = S / np.maximum(np.linalg.norm(S, axis=1, keepdims=True), 1e-300)
+    colour: dict = {"c": "tab:blue"}
+    if values is not None:
+        values = np.asarray(values, dtype=np.float64)
+        if values.shape != (len(S),):
+            raise ValueError(f"values: expected shape ({len(S)},), got {values.shape}")
+        ok = np.isfinite(values) & ((values > 0) if log else True)
+        lo, hi = (np.percentile(values[ok], [1, 99]) if ok.any() else (0.0, 1.0))
+        hi = max(hi, lo * (1 + 1e-9) + 1e-12)
+        norm = LogNorm(lo, hi) if log else None
+        colour = {"c": np.where(ok, values, np.nan), "cmap": "viridis", "norm": norm,
+                  "plotnonfinite": True, **({} if log else {"vmin": lo, "vmax": hi})}
+    fig = _new_figure((9.0, 7.6))
+    grid = fig.add_gridspec(2, 2, height_ratios=[1.0, 0.8])
+    size = float(np.clip(40000.0 / len(S), 0.3, 20.0))
+    views = ((S[:, 2] >= 0, S[:, 0], "north (z > 0), from above"),
+             (S[:, 2] < 0, -S[:, 0], "south (z < 0), from below"))
+    sc = None
+    for k, (side, x, label) in enumerate(views):
+        ax = fig.add_subplot(grid[0, k])
+        c = colour if values is None else {**colour, "c": colour["c"][side]}
+        sc = ax.scatter(x[side], S[side, 1], s=size, linewidths=0, rasterized=True, **c)
+        ax.add_patch(Circle((0, 0), 1.0, fill=False, color="0.4", lw=0.8))
+        ax.set_xlim(-1.05, 1.05)
+        ax.set_ylim(-1.05, 1.05)
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+        ax.set_title(label, fontsize=9)
+    ax = fig.add_subplot(grid[1, :])
+    lon = np.degrees(np.arctan2(S[:, 1], S[:, 0]))
+    lat = np.degrees(np.arcsin(np.clip(S[:, 2], -1.0, 1.0)))
+    sc = ax.scatter(lon, lat, s=size, linewidths=0, rasterized=True, **colour)
+    ax.set_xlim(-180, 180)
+    ax.set_ylim(-90, 90)
+    ax.set_aspect("equal")
+    ax.set_xlabel("longitude (degrees)")
+    ax.set_ylabel("latitude (degrees)")
+    ax.set_title("equirectangular", fontsize=9)
+    if values is not None:
+        fig.colorbar(sc, ax=fig.axes, shrink=0.6, label=value_label)
+    if title:
+        fig.suptitle(title)
     return _save_png_atomic(fig, path)
 
 

@@ -8,7 +8,7 @@ import os
 import sys
 from pathlib import Path
 
-from ..apps.evaluate import EVALUATION_BASELINES, PLOT_FILES, evaluate_map
+from ..apps.evaluate import PLOT_FILES, evaluate_map
 from ..errors import InputError
 from ..io import ParamResult, check_writable, read_points
 from ._common import (EXIT_OK, distinct_paths, print_angles, print_domain_fit, run_command,
@@ -21,7 +21,8 @@ HELP = "angle distortion and flips of a saved map on a reference mesh, beside ba
 DESCRIPTION = ("Angle distortion (mean, median, 95th percentile, maximum) and flipped "
                "triangles of a map written by 'pcgeom param', measured on a mesh with one "
                "vertex per row of the map, beside libigl's LSCM and harmonic disk map of the "
-               "same mesh (timed).")
+               "same mesh (timed); a map onto the sphere beside the spherical conformal map "
+               "of the same mesh.")
 EPILOG = f"""\
 examples:
   pcgeom evaluate mesh.ply mesh_uv.npz
@@ -31,6 +32,9 @@ examples:
       figures/{PLOT_FILES['checker']} (the mesh with a checkerboard in the map's
       coordinates, beside it coloured by angle distortion) and
       figures/{PLOT_FILES['history']} (the loss terms per stage)
+  pcgeom evaluate statue.ply statue_uv.npz --plot figures/
+      a map onto the sphere: figures/{PLOT_FILES['map']} and
+      figures/{PLOT_FILES['sphere_factor']} (the sphere and an equirectangular picture)
   pcgeom evaluate mesh.ply mesh_uv.npz --plot angles.png --no-baselines
       a .png path writes the angle histogram only
 
@@ -39,6 +43,11 @@ The Hausdorff distance of the map to its domain is reported for a bounded domain
 points, and of the mesh's mapped triangles), and that of each landmark set to its targets for
 a map trained with landmarks (its last stage's record).
 The baselines need a mesh with a boundary; on a closed mesh they are reported as not run.
+A map onto the sphere (--domain sphere) is measured on its chord triangles (the mesh's
+triangles with the mapped unit vectors as corners; flipped: turned against the centre), with
+its conformal factor, beside the spherical conformal map of MESH itself; its figures are the
+sphere coloured by angle distortion ({PLOT_FILES['map']}) and by the conformal factor
+({PLOT_FILES['sphere_factor']}), each with an equirectangular picture.
 """
 
 
@@ -95,8 +104,7 @@ def run(args) -> int:
     result = ParamResult.load(args.map, n_points=len(mesh.points), against=args.mesh)
 
     evaluation = evaluate_map(result.uv, mesh.points, mesh.faces, result.domain,
-                              result.history,
-                              baselines=() if args.no_baselines else EVALUATION_BASELINES)
+                              result.history, baselines=() if args.no_baselines else None)
     report = evaluation.report
     plots = None
     if plot is not None:
@@ -124,6 +132,11 @@ def run(args) -> int:
               + ", ".join(f"{d:.4f}" for d in report["landmark_hausdorff"]))
     print_angles(report)
     print(f"  {_angles_line(report)}")
+    factor = report.get("conformal_factor")
+    if factor is not None and factor["median"] is not None:
+        print(f"conformal factor (per vertex, 1: the surface's share of area): 5th percentile "
+              f"{factor['p5']:.3f}, median {factor['median']:.3f}, 95th {factor['p95']:.3f} "
+              f"(spread {factor['spread']:.2f}x)")
     if report["baselines"]:
         print("baselines on the same mesh:")
     for name, base in report["baselines"].items():

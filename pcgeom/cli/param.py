@@ -24,7 +24,7 @@ from ..domains import DOMAINS, PolygonDomain, get_domain
 from ..errors import InputError
 from ..examples import EXAMPLES, load_example
 from ..io import PointCloud, check_writable, read_landmarks, read_points, write_ply_atomic
-from ..maps import parametrize
+from ..maps import choose_map, parametrize
 from ..train import LOSS_TERMS, resolve_device
 from ._common import (EXIT_OK, add_denoise_option, add_texture_option, distinct_paths,
                       flip_places, int_at_least, print_angles, print_domain_fit, print_noise,
@@ -64,6 +64,9 @@ examples:
       "denoise" holds the estimated noise; the map file keeps the fitted points)
   pcgeom param scan.xyz --resume
       continue an interrupted run from scan_uv.ckpt (same input, preset and seed)
+  pcgeom param statue.ply --domain sphere --out-ply statue_sphere.ply --plot statue_sphere.png
+      a closed genus-0 cloud onto the unit sphere: the map file holds unit vectors (N, 3),
+      the PLY the sphere points (with the input's faces, if any)
 
 The map file loads with pcgeom.ParamResult.load(path); it records the domain, preset, seed
 and pcgeom version. Faces in the input (PLY/OBJ/OFF/NPZ) are never used for training, only
@@ -105,7 +108,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="output map (default: <input stem>_uv.npz next to the input; "
                         "<example>_uv.npz in the current directory for --example)")
     p.add_argument("--out-ply", metavar="MAPPED.ply",
-                   help="also write the mapped points (z = 0, input faces if any) as PLY")
+                   help="also write the mapped points (z = 0, input faces if any) as PLY; "
+                        "on the sphere, the unit vectors")
     p.add_argument("--out-mesh", metavar="MESH.obj|MESH.ply",
                    help="also write the input's mesh with the map as its texture coordinates "
                         "(OBJ vt, PLY texture_u texture_v); a bare cloud gets its local mesh, "
@@ -147,8 +151,11 @@ def _normals_used(history: list[dict], given: bool) -> str:
     return "input" if given else "none"
 
 
-def _check_outputs(args, default_out: Path) -> dict[str, Path | None]:
+def _check_outputs(args, default_out: Path, domain) -> dict[str, Path | None]:
     """All output paths, checked writable, distinct, and none of them the input."""
+    if args.out_mesh is not None and domain.closed:
+        raise InputError("--out-mesh writes planar texture coordinates; a map onto the sphere "
+                         "has none: use --out-ply for the sphere points")
     if args.texture is not None and args.out_mesh is None:
         raise InputError("--texture needs --out-mesh MESH.obj (the mesh it textures)")
     outs = {
@@ -191,6 +198,7 @@ def run(args) -> int:
     # Everything that can be wrong with the request is checked here, before training.
     domain = get_domain(args.domain)
     config = with_denoise(get_preset(args.preset), args.denoise)
+    choose_map(domain, config, args.landmarks is not None)  # a request no map is built for
     device = resolve_device(args.device)
     cloud, default_out = _load_input(args)
     points, faces, normals, name = cloud.points, cloud.faces, cloud.normals, cloud.source
@@ -201,7 +209,7 @@ def run(args) -> int:
                              "(or another domain)")
         landmarks = [(points[pair.indices], pair.targets)
                      for pair in read_landmarks(args.landmarks, points)]
-    outs = _check_outputs(args, default_out)
+    outs = _check_outputs(args, default_out, domain)
 
     if args.threads is not None:
         torch.set_num_threads(args.threads)
@@ -212,14 +220,20 @@ def run(args) -> int:
     domain = result.domain  # what the cloud decided filled in (annulus:auto's radius)
     result.save(outs["out"])
     if outs["out_ply"] is not None:
-        mapped = np.column_stack([result.uv, np.zeros(len(result.uv))])  # (N, 3), z = 0
+        mapped = (result.uv if domain.closed  # the sphere's unit vectors
+                  else np.column_stack([result.uv, np.zeros(len(result.uv))]))  # z = 0
         write_ply_atomic(outs["out_ply"], mapped, faces)
     mesh = _write_mesh(args, outs, cloud, result)
     if outs["plot"] is not None:
-        from ..apps.plot import plot_map
+        from ..apps.plot import plot_map, plot_sphere
 
-        plot_map(result.uv, outs["plot"], values=result.lambda_inv, domain=domain,
-                 title=f"{name}: {domain.label}, {args.preset} (colour: lambda_inv)")
+        title = f"{name}: {domain.label}, {args.preset} (colour: lambda_inv)"
+        if domain.closed:
+            plot_sphere(result.uv, outs["plot"], values=result.lambda_inv, title=title,
+                        value_label="lambda_inv")
+        else:
+            plot_map(result.uv, outs["plot"], values=result.lambda_inv, domain=domain,
+                     title=title)
     report = map_report(result.uv, domain, points, faces)
     outs["checkpoint"].unlink(missing_ok=True)
 

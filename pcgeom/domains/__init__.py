@@ -1,6 +1,6 @@
 """Parameter domains: 2D regions the cloud is mapped onto, looked up by a spec.
 
-A spec is a name (``"free"``, ``"disk"``, ``"smile"``), a name with values for the domain's
+A spec is a name (``"free"``, ``"disk"``, ``"smile"``, ``"sphere"``: the one closed domain), a name with values for the domain's
 ``spec_args`` (``"disk:0.5"``: the disk of radius 0.5; ``"rect:2"``: aspect 2), the path of a
 GeoJSON-style polygon file (``"room.json"``) or of a binary image mask (``"shape.png"``), a
 dict ``{"name": ..., **parameters}`` (what result files store, from :meth:`Domain.to_dict`), or
@@ -19,15 +19,17 @@ from .free import FreeBoundary
 from .polygon import PolygonDomain
 from .region import ShapelyDomain
 from .shapes import Annulus, Car, Rect, Smile, Square
+from .sphere import Sphere
 
 __all__ = ["Domain", "ShapelyDomain", "FreeBoundary", "Disk", "Square", "Rect", "Annulus",
-           "Smile", "Car", "PolygonDomain", "DOMAINS", "get_domain"]
+           "Smile", "Car", "PolygonDomain", "Sphere", "DOMAINS", "get_domain"]
 
 MASK_SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".gif", ".jpg", ".jpeg")
 """File names read as a binary image mask (:meth:`PolygonDomain.from_mask`)."""
 
 DOMAINS: dict[str, type[Domain]] = {
-    cls.name: cls for cls in (FreeBoundary, Disk, Square, Rect, Annulus, Smile, Car, PolygonDomain)
+    cls.name: cls for cls in (FreeBoundary, Disk, Square, Rect, Annulus, Smile, Car, Sphere,
+                                   PolygonDomain)
 }
 """Registry: domain name -> class (constructed with its parameters)."""
 

@@ -54,6 +54,11 @@ class Domain(abc.ABC):
     """Fields set, in this order, by the values of a spec string ``"name:v1,v2"``."""
     bounded: ClassVar[bool] = True
     """False only for the free boundary: no region to sample, no HAND term."""
+    closed: ClassVar[bool] = False
+    """True only for the sphere (:class:`pcgeom.domains.Sphere`): a closed surface, whose
+    maps hold one unit vector per point, ``(N, 3)``, and which has no boundary."""
+    dim: ClassVar[int] = 2
+    """Coordinates of a point of the domain: 2, or 3 for the sphere."""
 
     @abc.abstractmethod
     def sample(self, n: int, seed: int = 0) -> np.ndarray:

@@ -6,7 +6,8 @@ strings only (it loads with ``allow_pickle=False``):
 =================  ==========================================================================
 key                content
 =================  ==========================================================================
-``uv``             (N, 2) float64 map, one row per input row
+``uv``             (N, 2) float64 map, one row per input row; (N, 3) unit vectors for a map
+                   onto the sphere (``domain_json`` says ``"sphere"``)
 ``lambda_inv``     (N,) float64 inverse conformal factor
 ``center``         (3,) normalization translation
 ``scale``          () normalization scale, ``X_n = (X - center) / scale``
@@ -28,7 +29,8 @@ key                content
 
 Files written before ``domain_json``, ``seed`` and ``version`` existed still load, with a
 warning that says what is unknown; files without ``mesh_faces`` load with ``mesh_faces``
-None (``pcgeom param --out-mesh`` then rebuilds the local mesh).
+None (``pcgeom param --out-mesh`` then rebuilds the local mesh). A ``uv`` of three columns
+loads only with a ``domain_json`` that names the sphere.
 """
 
 from __future__ import annotations
@@ -61,7 +63,8 @@ class ParamResult:
     """A finished parametrization (NumPy arrays, one row per input point)."""
 
     uv: np.ndarray
-    """(N, 2) float64 map of the normalized cloud, in the input's row order."""
+    """(N, 2) float64 map of the normalized cloud, in the input's row order; (N, 3) unit
+    vectors for a map onto the sphere (:attr:`pcgeom.domains.Domain.closed`)."""
     lambda_inv: np.ndarray | None
     """(N,) float64 inverse conformal factor l(x_i) (None for a bare ``uv`` file)."""
     center: np.ndarray | None
@@ -179,7 +182,7 @@ class ParamResult:
                              "expected a map written by 'pcgeom param'")
 
         uv = data["uv"]
-        if uv.ndim != 2 or uv.shape[1] != 2:
+        if uv.ndim != 2 or uv.shape[1] not in (2, 3):
             raise InputError(f"{name}: 'uv' must have shape (N, 2), got {uv.shape}")
         if n_points is not None and len(uv) != n_points:
             raise InputError(f"{name}: map has {len(uv)} rows but {against} has {n_points} points")
@@ -199,6 +202,10 @@ class ParamResult:
         except (ValueError, TypeError) as exc:  # JSONDecodeError and InputError are ValueErrors
             raise InputError(f"{name}: cannot parse its config, history or domain: "
                              f"{_one_line(exc)}") from None
+        dim = 3 if domain is not None and domain.closed else 2
+        if uv.shape[1] != dim:
+            raise InputError(f"{name}: 'uv' must have shape (N, {dim}) for the domain "
+                             f"{'sphere' if dim == 3 else 'it records'}, got {uv.shape}")
         absent = [k for k in _OPTIONAL if k not in data]
         if absent:
             warnings.warn(f"{name}: written by an older pcgeom or another tool; unknown: "

@@ -360,8 +360,8 @@ def _interpolate_rest(X: np.ndarray, U: np.ndarray, known: np.ndarray) -> np.nda
 def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
                normal_neighbours: int, *, progress: bool,
                normal_scales: tuple[int, ...] = (6, 8, 12, 16, 24),
-               normal_tolerance: float = 0.03, outlier: np.ndarray | None = None
-               ) -> tuple[LocalMesh, np.ndarray, dict]:
+               normal_tolerance: float = 0.03, outlier: np.ndarray | None = None,
+               closed: bool = False) -> tuple[LocalMesh, np.ndarray, dict]:
     """Outliers, the surface test, normals and the local mesh of a normalized cloud.
 
     Parameters
@@ -377,6 +377,9 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
         and, without normals, their estimate.
     outlier : (N,) bool, optional
         The cloud's strays (:func:`pcgeom.neighbours.find_outliers`), when already found.
+    closed : bool
+        The mesh is for a closed surface (the sphere map, :mod:`pcgeom.maps.sphere`): no
+        refusal of a closed cloud.
 
     Returns
     -------
@@ -426,7 +429,7 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     if meshed < MIN_MESHED:
         raise InputError(f"only {100 * meshed:.0f}% of the points fit one local mesh: "
                          + NOT_A_SURFACE)
-    if mesh.looks_closed:
+    if mesh.looks_closed and not closed:
         raise InputError(CLOSED_SURFACE)
     record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
               "neighbours": neighbours, "normal_scale": float(np.median(scale)),

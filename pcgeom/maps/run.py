@@ -44,6 +44,7 @@ from .domain import domain_map, resolve_domain
 from .free import free_map, free_start
 from .networks import build_networks, run_network_stage
 from .refine import refine
+from .sphere import sphere_map
 
 __all__ = ["parametrize", "choose_map", "MAPS"]
 
@@ -54,8 +55,18 @@ MAPS = {
               "map (pcgeom.maps.riemann); else the local mesh laid on the domain, holes on "
               "holes, then refined (pcgeom.maps.domain)",
     "networks": "Algorithm 1's network stages, then the refinement (pcgeom.maps.networks)",
+    "sphere": "onto the sphere, a closed genus-0 cloud: the spherical conformal map of its "
+              "closed local mesh (pcgeom.maps.sphere)",
 }
 """The maps a run can make, by the name :func:`choose_map` gives."""
+
+SPHERE_LANDMARKS = ("landmarks are not built for --domain sphere: map the closed cloud without "
+                    "--landmarks")
+"""The message of the :class:`InputError` for landmarks onto the sphere."""
+
+SPHERE_NETWORKS = ("--domain sphere is mapped by the fast preset's local mesh only; the networks "
+                   "and paper presets train planar maps: use --preset fast")
+"""The message of the :class:`InputError` for a network preset onto the sphere."""
 
 _DTYPES = {"float32": torch.float32, "float64": torch.float64}
 
@@ -82,8 +93,20 @@ def choose_map(domain: Domain, config: ParamConfig, landmarks: bool) -> str:
 
     The free boundary: ``config.free_map``. A disk without landmarks: ``config.disk_map``
     (laid and refined when ``local_mesh.disk_refine``). Any other bounded domain, and any
-    domain with landmarks: ``config.domain_map``.
+    domain with landmarks: ``config.domain_map``. The sphere: ``"sphere"``.
+
+    Raises
+    ------
+    InputError
+        The sphere with landmarks, or with a config whose maps are the networks (the
+        ``networks`` and ``paper`` presets): neither is built for it.
     """
+    if domain.closed:
+        if landmarks:
+            raise InputError(SPHERE_LANDMARKS)
+        if "networks" in (config.free_map, config.disk_map, config.domain_map):
+            raise InputError(SPHERE_NETWORKS)
+        return "sphere"
     if not domain.bounded:
         return "free" if config.free_map == "localmesh" else "networks"
     if isinstance(domain, Disk) and not landmarks:
@@ -185,10 +208,10 @@ def parametrize(
     if normals is not None:
         normals = normals[first]
     Xn, center, scale = normalize(unique)
+    kind = choose_map(domain, config, bool(landmarks))
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
     if lm_points and not domain.bounded:
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
-    kind = choose_map(domain, config, bool(landmarks))
     log(f"{len(P)} points onto {domain.label}: the {kind} map", enabled=progress)
     Xn, denoised, outlier = _denoise(Xn, normals, config, lm_points)
     # The record in input units; it is the run's first stage when it moved the points.
@@ -198,10 +221,13 @@ def parametrize(
         log(f"noise {denoised['noise']:.2f} spacings: the map is made of the fitted surface "
             f"(points moved {denoised['moved']:.2f} spacings on average)", enabled=progress)
 
-    def result(uv, lam_inv, history, mesh=None) -> ParamResult:
+    def result(uv, lam_inv, history, mesh=None, faces=None) -> ParamResult:
         """The run's result, rows back in the input's order (duplicates included), with the
-        local mesh's main part (``mesh``) as input rows; a warning when the map turns over
+        local mesh's main part (``mesh``), or the triangles ``faces`` (rows of ``Xn``: the
+        sphere map's closed mesh), as input rows; a warning when the map turns over
         triangles of the cloud's local mesh."""
+        if mesh is not None:
+            faces = mesh.faces[mesh.main[mesh.faces].all(axis=1)]
         _warn_flips(history[-1].get("flips") if history else None)
         return ParamResult(
             uv=np.asarray(uv, dtype=np.float64)[inverse],
@@ -212,8 +238,7 @@ def parametrize(
             fingerprint=fingerprint(P), version=__version__,
             denoise=denoised if config.denoise.mode != "off" else None,
             fitted=(Xn * scale + center)[inverse] if denoised["applied"] else None,
-            mesh_faces=None if mesh is None else first[mesh.faces[mesh.main[mesh.faces]
-                                                                   .all(axis=1)]],
+            mesh_faces=None if faces is None else first[faces],
         )
 
     def report(record: dict, U) -> None:
@@ -229,6 +254,11 @@ def parametrize(
                                        progress=progress, start=start)
         report(record, uv)
         return result(uv, lam_inv, [record], start[1])
+    if kind == "sphere":
+        uv, lam_inv, record, faces = sphere_map(Xn, normals, config, progress=progress,
+                                                outlier=outlier)
+        report(record, uv)
+        return result(uv, lam_inv, [record], faces=faces)
     if kind == "disk":
         uv, lam_inv, record = disk_map(Xn, normals, config, domain, progress=progress,
                                        start=start)

@@ -42,7 +42,7 @@ from ..errors import InputError
 from ._sparse import solver_name, spd_factor
 
 __all__ = ["spherical_conformal", "mobius_centre", "sphere_flips", "mesh_topology",
-           "sphere_map", "stereographic", "inverse_stereographic", "FIXED_FRACTION", "CLAMP"]
+           "sphere_map", "closed_mesh", "outward", "vertex_areas", "OPEN_SURFACE", "HIGHER_GENUS", "stereographic", "inverse_stereographic", "FIXED_FRACTION", "CLAMP"]
 
 FIXED_FRACTION = 0.1
 """Points nearest the south pole that keep their place in the south-pole correction (Choi et
@@ -78,17 +78,15 @@ def mesh_topology(F: np.ndarray, n: int | None = None) -> dict:
     """Euler characteristic, boundary loops and genus of the mesh ``F`` (M, 3).
 
     ``euler = V - E + F`` over the vertices that triangles use, ``boundary_loops`` counted
-    by :func:`pcgeom.maps.localmesh._boundary_loops`, ``genus = (2 - euler - loops) / 2``
+    by :func:`pcgeom.mesh.boundary_loops`, ``genus = (2 - euler - loops) / 2``
     (one connected part), ``closed`` when no edge has one triangle only."""
-    from .localmesh import _boundary_loops, _edge_ids
+    from ..mesh import boundary_loops, unique_edges
 
     F = np.asarray(F, dtype=np.int64)
-    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    ids = _edge_ids(edges)
-    uses = np.bincount(ids)
+    uses = unique_edges(F, return_counts=True)[1]
     n_v = len(np.unique(F))
     euler = n_v - len(uses) + len(F)
-    loops = len(_boundary_loops(F)) if (uses == 1).any() else 0
+    loops = len(boundary_loops(F)) if (uses == 1).any() else 0
     return {"euler": int(euler), "boundary_loops": int(loops), "closed": bool((uses == 1).sum() == 0),
             "genus": int((2 - euler - loops) // 2), "vertices": int(n_v)}
 
@@ -279,9 +277,22 @@ def spherical_conformal(V, F, *, correct: bool = True, centre: bool = True,
     -------
     (N, 3) float64
         Unit vectors; counter-clockwise triangles of ``F`` seen from outside stay so.
+
+    Raises
+    ------
+    InputError
+        The mesh is open, of genus above 0, or leaves vertices out.
     """
     V = np.ascontiguousarray(V, dtype=np.float64)
     F = np.ascontiguousarray(F, dtype=np.int64)
+    topology = mesh_topology(F)
+    if not topology["closed"]:
+        raise InputError(f"F: a spherical map needs a closed mesh; it has "
+                         f"{topology['boundary_loops']} boundary loops")
+    if topology["genus"] != 0 or topology["vertices"] != len(V):
+        raise InputError(f"F: a spherical map needs a closed genus-0 mesh with every vertex "
+                         f"used; it has genus {topology['genus']} and uses "
+                         f"{topology['vertices']} of {len(V)} vertices")
     big = _regular_triangle(V, F)
     z = _disk_harmonic(V, F, big)
     z = z - z.mean()
@@ -306,3 +317,130 @@ def spherical_conformal(V, F, *, correct: bool = True, centre: bool = True,
     if stats is not None:
         stats.update(mu_scale=scale, mobius_rounds=rounds, flips=int(sphere_flips(S, F).sum()))
     return S
+
+
+SMALL_HOLE = 12
+"""Boundary loops of the local mesh with at most this many points are filled (a fan from
+their first point) before the topology is read: gaps the fans leave on a closed surface."""
+
+OPEN_SURFACE = ("--domain sphere maps closed surfaces, and this cloud is open: it has {loops} "
+                "boundary loops; map it onto a planar domain (--domain free, disk, ...)")
+"""The message of the :class:`InputError` for an open cloud onto the sphere."""
+
+HIGHER_GENUS = ("--domain sphere maps closed genus-0 surfaces, and this cloud is closed with "
+                "genus {genus} (its local mesh has {genus} handle(s)); a surface with handles "
+                "has no bijective map onto the sphere")
+"""The message of the :class:`InputError` for a closed cloud of genus above 0."""
+
+
+def _fill_small_holes(F: np.ndarray, limit: int = SMALL_HOLE) -> np.ndarray:
+    """``F`` with each boundary loop of at most ``limit`` points closed by a fan of
+    triangles, oriented as the mesh (a boundary edge ``a -> b`` of a triangle gets ``b -> a``
+    in the fan)."""
+    from ..mesh import boundary_loops
+
+    new = [F]
+    for loop in boundary_loops(F):
+        if len(loop) <= limit:
+            new.append(np.array([[loop[0], loop[k + 1], loop[k]]
+                                 for k in range(1, len(loop) - 1)], dtype=np.int64))
+    return np.concatenate(new) if len(new) > 1 else F
+
+
+def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The closed genus-0 mesh a sphere map is made on, from the cloud's local mesh: its
+    main part with the small gaps filled (:func:`_fill_small_holes`).
+
+    Returns the main part's point indices (K,), its faces (M, 3) in those (renumbered), and
+    its topology (:func:`mesh_topology`).
+
+    Raises
+    ------
+    InputError
+        An open cloud (:data:`OPEN_SURFACE`) or a closed one of genus > 0
+        (:data:`HIGHER_GENUS`).
+    """
+    from .localmesh import _submesh
+
+    index, _, F = _submesh(Xn, mesh.faces, mesh.main)
+    F = _fill_small_holes(F)
+    topology = mesh_topology(F)
+    if not topology["closed"]:
+        raise InputError(OPEN_SURFACE.format(loops=topology["boundary_loops"]))
+    if topology["genus"] != 0:
+        raise InputError(HIGHER_GENUS.format(genus=topology["genus"]))
+    return index, F, topology
+
+
+def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: bool,
+               outlier: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
+    """The sphere map of a run: the cloud's local mesh (:func:`pcgeom.maps.localmesh.
+    mesh_cloud`), closed (:func:`closed_mesh`), mapped by :func:`spherical_conformal`;
+    points off the mesh take the normalised inverse-distance mean of their nearest meshed
+    points' unit vectors.
+
+    Returns
+    -------
+    uv : (N, 3) float64
+        Unit vectors.
+    lam_inv : (N,) float64
+        :func:`pcgeom.maps.free.conformal_factor` of the sphere map (chord distances).
+    record : dict
+        The history record: the local mesh's (``normals``, ``faces``, ...), ``topology``
+        (:func:`mesh_topology` of the closed mesh), ``filled`` (triangles added to close
+        gaps), ``mu_scale``, ``mobius_rounds``, ``flips`` (``count``, ``faces``: chord
+        triangles of the closed mesh turned over), ``onto`` ("sphere"), ``solver`` and
+        ``seconds``.
+    faces : (M, 3) int64
+        The closed mesh the map was made on, as rows of ``Xn`` (outward).
+
+    Raises
+    ------
+    InputError
+        As :func:`pcgeom.maps.localmesh.mesh_cloud` (not a surface) and
+        :func:`closed_mesh` (open, or genus above 0).
+    """
+    from ..neighbours import find_outliers
+    from .free import conformal_factor
+    from .localmesh import _interpolate_rest, mesh_cloud
+
+    t0 = time.perf_counter()
+    settings = config.local_mesh
+    outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, dtype=bool)
+    mesh, normals, record = mesh_cloud(Xn, normals, settings.neighbours,
+                                       settings.normal_neighbours, progress=progress,
+                                       normal_scales=settings.normal_scales,
+                                       normal_tolerance=settings.normal_tolerance,
+                                       outlier=outlier, closed=True)
+    index, F, topology = closed_mesh(Xn, mesh)
+    V = Xn[index]
+    F = outward(V, F)  # the normals may have been oriented inward
+    stats: dict = {}
+    S_main = spherical_conformal(V, F, stats=stats)
+    S = np.full((len(Xn), 3), np.nan)
+    S[index] = S_main
+    known = np.zeros(len(Xn), dtype=bool)
+    known[index] = True
+    S = _interpolate_rest(Xn, S, known)
+    S /= np.linalg.norm(S, axis=1, keepdims=True)
+    record.update(kind="localmesh", onto="sphere", topology=topology,
+                  filled=int(len(F) - mesh.main[mesh.faces].all(axis=1).sum()),
+                  mu_scale=stats["mu_scale"], mobius_rounds=stats["mobius_rounds"],
+                  flips={"count": stats["flips"], "faces": int(len(F)), "rim": 0, "hole": 0,
+                         "inside": stats["flips"]},
+                  solver=solver_name(), seconds=time.perf_counter() - t0)
+    return S, conformal_factor(Xn, S), record, index[F]
+
+
+def outward(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """The faces of the closed mesh turned, when needed, so that they enclose a positive
+    volume (counter-clockwise seen from outside)."""
+    F = np.asarray(F, dtype=np.int64)
+    return F[:, ::-1].copy() if _signed_volume(V, F) < 0 else F
+
+
+def _signed_volume(V: np.ndarray, F: np.ndarray) -> float:
+    """Six times the volume the closed mesh encloses, positive when its triangles turn
+    counter-clockwise seen from outside."""
+    return float(np.einsum("ij,ij->i", V[F[:, 0]], np.cross(V[F[:, 1]], V[F[:, 2]])).sum())
