@@ -19,6 +19,7 @@ from pcgeom.domains import (
     Rect,
     ShapelyDomain,
     Smile,
+    Sphere,
     Square,
     get_domain,
 )
@@ -26,7 +27,7 @@ from pcgeom.errors import InputError
 from pcgeom.metrics import domain_hausdorff, hausdorff
 
 # The registry, in order, as error messages list it.
-_ALL = "free, disk, square, rect, annulus, smile, car, polygon"
+_ALL = "free, disk, square, rect, annulus, smile, car, sphere, polygon"
 
 
 def _dense_disk_reference(h: float = 0.01) -> np.ndarray:
@@ -121,9 +122,10 @@ def test_get_domain():
     assert disk == Disk() and disk.name == "disk"
     assert get_domain(disk) is disk  # a Domain is returned as is
     assert list(DOMAINS) == ["free", "disk", "square", "rect", "annulus", "smile", "car",
-                             "polygon"]
+                             "sphere", "polygon"]
     assert DOMAINS == {"free": FreeBoundary, "disk": Disk, "square": Square, "rect": Rect,
-                       "annulus": Annulus, "smile": Smile, "car": Car, "polygon": PolygonDomain}
+                       "annulus": Annulus, "smile": Smile, "car": Car, "sphere": Sphere,
+                       "polygon": PolygonDomain}
 
 
 def test_get_domain_short_spec_sets_the_spec_args():

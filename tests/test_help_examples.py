@@ -6,8 +6,10 @@ touching this file. Each example runs in-process (``cli.main``) in its own empty
 where the input files it names are created first from a small three-peaks patch:
 
 - a cloud (``scan.ply``, ``mesh.obj``, ``scan.xyz``, ``scan.las``, ...) in the format its
-  extension names, with the reference triangles when the format holds faces;
-- ``NAME_uv.npz`` read as a map (``--map`` or a positional): a free-boundary map of ``NAME``;
+  extension names, with the reference triangles when the format holds faces; a name starting
+  with ``statue`` is a closed surface (an analytic ellipsoid, for ``--domain sphere``);
+- ``NAME_uv.npz`` read as a map (``--map`` or a positional): a free-boundary map of ``NAME``
+  (a sphere map of a closed ``NAME``);
 - ``--landmarks FILE.json``: landmark pairs on that cloud; any other ``.json``: a polygon domain;
 - a glob (``scans/*.ply``): three small clouds matching it.
 
@@ -71,7 +73,16 @@ EXAMPLES = _all_examples()
 # --------------------------------------------------------------------------- input files
 
 
-def _cloud() -> tuple[np.ndarray, np.ndarray]:
+CLOSED_STEMS = ("statue",)
+"""Cloud names (their start) written as a closed surface."""
+
+
+def _cloud(closed: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    if closed:
+        from pcgeom.synthetic_closed import closed_surface
+
+        s = closed_surface("ellipsoid", 800, sampling="grid")
+        return s.points, s.faces
     return peaks_surface("peaks3", n_side=N_SIDE)
 
 
@@ -79,7 +90,7 @@ def _write_cloud(path: Path) -> None:
     """The example cloud in the format of ``path``'s extension (faces where it holds them)."""
     import trimesh
 
-    V, F = _cloud()
+    V, F = _cloud(path.stem.startswith(CLOSED_STEMS))
     path.parent.mkdir(parents=True, exist_ok=True)
     ext = path.suffix.lower()
     if ext == ".ply":
@@ -111,7 +122,8 @@ def _write_map(path: Path, cloud_path: Path) -> None:
     points = read_points(cloud_path).points
     key = points.tobytes()
     if key not in _MAPS:  # one training per distinct cloud, shared by the examples
-        _MAPS[key] = parametrize(points, "free", config=small_preset("fast"), seed=0,
+        domain = "sphere" if cloud_path.stem.startswith(CLOSED_STEMS) else "free"
+        _MAPS[key] = parametrize(points, domain, config=small_preset("fast"), seed=0,
                                  progress=False)
     _MAPS[key].save(path)
 

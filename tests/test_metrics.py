@@ -157,8 +157,11 @@ def test_angle_distortion_input_errors():
     match = r"U: expected shape \(36, 2\) \(one row per row of V\), got \(35, 2\)"
     with pytest.raises(ValueError, match=match):
         angle_distortion(V, F, U[:-1])
-    with pytest.raises(ValueError, match=r"U: expected shape \(36, 2\) .*, got \(36, 3\)"):
-        angle_distortion(V, F, V)
+    with pytest.raises(ValueError, match=r"U: expected shape \(36, 2\) .*, got \(36, 4\)"):
+        angle_distortion(V, F, np.column_stack([V, V[:, :1]]))
+    # Three columns are a sphere map's unit vectors (tests/test_sphere.py): one row per vertex.
+    with pytest.raises(ValueError, match=r"U: expected shape \(36, 3\) .*, got \(35, 3\)"):
+        angle_distortion(V, F, V[:-1])
     U_nan = U.copy()
     U_nan[3, 1] = np.nan
     with pytest.raises(ValueError, match="U: contains NaN or inf"):

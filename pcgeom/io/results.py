@@ -204,8 +204,9 @@ class ParamResult:
                              f"{_one_line(exc)}") from None
         dim = 3 if domain is not None and domain.closed else 2
         if uv.shape[1] != dim:
-            raise InputError(f"{name}: 'uv' must have shape (N, {dim}) for the domain "
-                             f"{'sphere' if dim == 3 else 'it records'}, got {uv.shape}")
+            raise InputError(f"{name}: 'uv' must have shape (N, {dim})"
+                             + (" for the domain sphere" if dim == 3 else "")
+                             + f", got {uv.shape}")
         absent = [k for k in _OPTIONAL if k not in data]
         if absent:
             warnings.warn(f"{name}: written by an older pcgeom or another tool; unknown: "

@@ -319,7 +319,7 @@ def spherical_conformal(V, F, *, correct: bool = True, centre: bool = True,
     return S
 
 
-SMALL_HOLE = 12
+SMALL_HOLE = 30
 """Boundary loops of the local mesh with at most this many points are filled (a fan from
 their first point) before the topology is read: gaps the fans leave on a closed surface."""
 
@@ -349,7 +349,9 @@ def _fill_small_holes(F: np.ndarray, limit: int = SMALL_HOLE) -> np.ndarray:
 
 def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
     """The closed genus-0 mesh a sphere map is made on, from the cloud's local mesh: its
-    main part with the small gaps filled (:func:`_fill_small_holes`).
+    main part, made vertex-manifold (:func:`pcgeom.maps.localmesh._vertex_manifold`), with
+    the small gaps filled (:func:`_fill_small_holes`); points it leaves out are not in
+    ``index``.
 
     Returns the main part's point indices (K,), its faces (M, 3) in those (renumbered), and
     its topology (:func:`mesh_topology`).
@@ -360,10 +362,16 @@ def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
         An open cloud (:data:`OPEN_SURFACE`) or a closed one of genus > 0
         (:data:`HIGHER_GENUS`).
     """
-    from .localmesh import _submesh
+    from .localmesh import _submesh, _vertex_manifold
 
     index, _, F = _submesh(Xn, mesh.faces, mesh.main)
-    F = _fill_small_holes(F)
+    # Bowties (two fans at a vertex) first: the smaller fans go, so that every gap is one
+    # simple loop, then the small loops are filled.
+    F = _fill_small_holes(_vertex_manifold(F))
+    used = np.unique(F)
+    renumber = np.full(len(index), -1, dtype=np.int64)
+    renumber[used] = np.arange(len(used))
+    index, F = index[used], renumber[F]
     topology = mesh_topology(F)
     if not topology["closed"]:
         raise InputError(OPEN_SURFACE.format(loops=topology["boundary_loops"]))
