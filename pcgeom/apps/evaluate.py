@@ -305,7 +305,7 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
     -------
     dict
         Key of :data:`PLOT_FILES` -> the Path written, or None when the figure does not
-        apply.
+        apply (``sphere_factor`` only for a sphere map).
     """
     from .plot import plot_angle_histogram, plot_checker, plot_history, plot_map
     from .texture import uv_scaling
@@ -327,7 +327,6 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
             title=f"{prefix}angle distortion per vertex (rad)"),
         "checker": None,
         "history": None,
-        "sphere_factor": None,
     }
     if evaluation.points is not None:
         written["checker"] = plot_checker(
