@@ -78,7 +78,7 @@ def _list(args) -> int:
     width = max(len(s) for s in shown.values())
     for r in rows:
         area = "-" if r["area"] is None else f"{r['area']:.4f}"
-        print(f"{shown[r['name']]:<{width}}  area {area:>7}  {r['description']}")
+        print(f"{shown[r['name']]:<{width}}  area {area:>6}  {r['description']}")
     return EXIT_OK
 
 
