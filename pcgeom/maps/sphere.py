@@ -361,7 +361,7 @@ def _fill_small_holes(F: np.ndarray, limit: int = SMALL_HOLE) -> np.ndarray:
 
 def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
     """The closed genus-0 mesh a sphere map is made on, from the cloud's local mesh: its
-    main part, made vertex-manifold (:func:`pcgeom.maps.localmesh._vertex_manifold`), with
+    main part, made vertex-manifold (:func:`pcgeom.mesh.one_fan`), with
     the small gaps filled (:func:`_fill_small_holes`); points it leaves out are not in
     ``index``.
 
@@ -374,12 +374,13 @@ def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
         An open cloud (:data:`OPEN_SURFACE`) or a closed one of genus > 0
         (:data:`HIGHER_GENUS`).
     """
-    from .localmesh import _submesh, _vertex_manifold
+    from ..mesh import one_fan
+    from .localmesh import _submesh
 
     index, _, F = _submesh(Xn, mesh.faces, mesh.main)
     # Bowties (two fans at a vertex) first: the smaller fans go, so that every gap is one
     # simple loop, then the small loops are filled.
-    F = _fill_small_holes(_vertex_manifold(F))
+    F = _fill_small_holes(one_fan(F, 5, bowties_only=True)[0])
     used = np.unique(F)
     renumber = np.full(len(index), -1, dtype=np.int64)
     renumber[used] = np.arange(len(used))
