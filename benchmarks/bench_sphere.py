@@ -12,8 +12,8 @@ Part 2, the method against the alternatives, in this process, on true meshes and
 cloud's own local mesh (closed as ``--domain sphere`` closes it): Choi, Lam and Lui's linear
 method as published (cotangent weights as they are), pcgeom's (the weights clamped positive
 where they turn a triangle over, which makes the planar step bijective), the weights always
-clamped, without the south-pole correction, and conformalized mean curvature flow (Kazhdan et al. 2012) followed
-by the radial projection. Replaces the section ``bench_sphere`` of BENCHMARKS.md.
+clamped, without the south-pole correction, and conformalized mean curvature flow (Kazhdan et
+al. 2012) followed by the radial projection. Replaces the section ``bench_sphere`` of BENCHMARKS.md.
 """
 
 from __future__ import annotations
@@ -154,9 +154,9 @@ def run_all(args, work: Path) -> tuple[list, list]:
         rows.append(cloud_row("closed_david_head_choi", mesh.points, mesh.points, mesh.faces,
                               work))
     if args.large:
-        s = closed_surface("bumpy", args.large, sampling="uniform")
-        rows.append(cloud_row(f"bumpy, uniform, noise 0 ({args.large // 1000}k)", s.points,
-                              s.clean_points, s.faces, work))
+        s = closed_surface("bumpy", args.large, sampling=args.large_sampling)
+        rows.append(cloud_row(f"bumpy, {args.large_sampling}, noise 0 ({args.large // 1000}k)",
+                              s.points, s.clean_points, s.faces, work))
     # Part 2.
     cases = [(f"{shape}, grid, 5k", closed_surface(shape, 5000, sampling="grid"))
              for shape in ("ellipsoid", "bumpy", "peanut")]
@@ -253,6 +253,8 @@ def main(argv=None) -> int:
     p.add_argument("--sizes", nargs="*", type=int, default=[5000, 50_000])
     p.add_argument("--large", type=int, default=200_000,
                    help="points of the one large run (0: none)")
+    p.add_argument("--large-sampling", default="grid", choices=SAMPLINGS,
+                   help="its sampling (default: grid)")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         rows, methods = run_all(args, Path(tmp))

@@ -7,7 +7,8 @@ About two minutes on two CPU cores: the README's picture (`pcgeom param --exampl
 seconds), three network-only maps of a 900-point three-peaks patch (one stage of the
 `networks` preset from a random start, for three sigma), a few HAND evaluations, and the
 boundary loops of a holed patch for several h, and the README's reconstructed scan with its
-checkerboard (face_3holes_small_choi from ../shared/data, skipped when absent). The printed
+checkerboard (face_3holes_small_choi from ../shared/data, skipped when absent), and the closed
+david head mapped onto the sphere (closed_david_head_choi, skipped when absent). The printed
 figures are the ones docs/choosing_parameters.md and the README quote. PNGs are stored with a
 128-colour palette to keep the repository small.
 """
@@ -434,6 +435,30 @@ def checker_picture(path: Path, data: Path) -> None:
                        "checker:16)")
 
 
+def sphere_picture(path: Path, data: Path) -> None:
+    """The README's sphere: the closed david head mapped from its bare points onto the sphere
+    (``pcgeom param --domain sphere``, its faces only to judge), drawn by ``pcgeom evaluate
+    --plot`` coloured by the conformal factor, with its equirectangular picture. Skipped when
+    the shared surface is absent."""
+    import shutil
+    import tempfile
+
+    from pcgeom import cli
+    from pcgeom.apps.evaluate import PLOT_FILES
+
+    head = data / "closed_david_head_choi.ply"
+    if not head.exists():
+        print(f"{path.name}: skipped, {head} is absent")
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "head_uv.npz"
+        assert cli.main(["param", str(head), "--domain", "sphere", "--out", str(out),
+                         "--quiet"]) == 0
+        assert cli.main(["evaluate", str(head), str(out), "--plot", str(Path(tmp) / "figs"),
+                         "--json"]) == 0
+        shutil.copyfile(Path(tmp) / "figs" / PLOT_FILES["sphere_factor"], path)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(DOCS), help="folder of the PNGs (default: docs/)")
@@ -457,6 +482,7 @@ def main(argv=None) -> int:
         "fig_robust.png": robust_figure,
         "fig_normal_rounds.png": normal_rounds_figure,
         "fig_checker.png": lambda path: checker_picture(path, Path(args.data)),
+        "fig_sphere.png": lambda path: sphere_picture(path, Path(args.data)),
     }
     if args.only is not None:
         figures = {args.only: figures[args.only]}

@@ -13,8 +13,8 @@ import numpy as np
 from .cloud import validate_faces
 from .mesh import signed_areas, unique_edges
 
-__all__ = ["angle_distortion", "AngleReport", "area_factor", "flip_locations", "flipped_mask", "hausdorff",
-           "domain_hausdorff", "surface_hausdorff"]
+__all__ = ["angle_distortion", "AngleReport", "area_factor", "flip_locations", "flipped_mask",
+           "hausdorff", "domain_hausdorff", "surface_hausdorff"]
 
 
 @dataclass(frozen=True)

@@ -22,8 +22,8 @@ from ..io.atomic import write_atomic
 from ..mesh import half_edges
 from ..train.objective import LOSS_TERMS
 
-__all__ = ["plot_map", "plot_sphere", "plot_domain", "plot_history", "plot_angle_histogram", "plot_boundary",
-           "plot_boundary_h_sweep", "plot_checker"]
+__all__ = ["plot_map", "plot_sphere", "plot_domain", "plot_history", "plot_angle_histogram",
+           "plot_boundary", "plot_boundary_h_sweep", "plot_checker"]
 
 
 def _new_figure(figsize: tuple[float, float]):

@@ -21,6 +21,8 @@ module                 what it makes
                        then refined)
 :mod:`.networks`       the paper's two sine networks trained stage by stage
                        (Algorithm 1)
+:mod:`.sphere`         the map of a closed genus-0 cloud onto the sphere (the closed
+                       local mesh's spherical conformal map); :func:`sphere_map`
 :mod:`.refine`         the per-point refinement (LEG on local pairs, HAND, landmarks)
 :mod:`.run`            :func:`parametrize`, :func:`choose_map`, :data:`MAPS`
 =====================  ==============================================================
@@ -33,6 +35,7 @@ from .localmesh import LocalMesh, local_mesh, mesh_cloud
 from .normals import estimate_normals, orient_normals
 from .riemann import riemann_onto
 from .run import MAPS, choose_map, parametrize
+from .sphere import sphere_map, spherical_conformal
 
 __all__ = [
     "parametrize", "choose_map", "MAPS",
@@ -40,4 +43,5 @@ __all__ = [
     "lscm_free", "conformal_factor", "free_map",
     "conformal_disk", "disk_map",
     "harmonic_onto", "align_onto", "domain_map", "riemann_onto",
+    "spherical_conformal", "sphere_map",
 ]

@@ -45,7 +45,9 @@ from ..errors import InputError
 from ._sparse import solver_name, spd_factor
 
 __all__ = ["spherical_conformal", "mobius_centre", "sphere_flips", "mesh_topology",
-           "sphere_map", "closed_mesh", "outward", "vertex_areas", "OPEN_SURFACE", "HIGHER_GENUS", "stereographic", "inverse_stereographic", "FIXED_FRACTION", "CLAMP"]
+           "sphere_map", "closed_mesh", "outward", "vertex_areas", "stereographic",
+           "inverse_stereographic", "OPEN_SURFACE", "HIGHER_GENUS", "FIXED_FRACTION", "CLAMP",
+           "SMALL_HOLE"]
 
 FIXED_FRACTION = 0.1
 """Points nearest the south pole that keep their place in the south-pole correction (Choi et
@@ -90,8 +92,8 @@ def mesh_topology(F: np.ndarray, n: int | None = None) -> dict:
     n_v = len(np.unique(F))
     euler = n_v - len(uses) + len(F)
     loops = len(boundary_loops(F)) if (uses == 1).any() else 0
-    return {"euler": int(euler), "boundary_loops": int(loops), "closed": bool((uses == 1).sum() == 0),
-            "genus": int((2 - euler - loops) // 2), "vertices": int(n_v)}
+    return {"euler": int(euler), "boundary_loops": int(loops),
+            "closed": bool((uses == 1).sum() == 0), "genus": int((2 - euler - loops) // 2), "vertices": int(n_v)}
 
 
 def _regular_triangle(V: np.ndarray, F: np.ndarray) -> int:
