@@ -38,7 +38,7 @@ def ellipsoid_map(ellipsoid):
     return parametrize(ellipsoid.points, "sphere", progress=False)
 
 
-def test_the_sphere_is_a_domain():
+def test_the_sphere_is_a_domain(tmp_path, capsys):
     sphere = get_domain("sphere")
     assert isinstance(sphere, Sphere) and sphere.closed and sphere.dim == 3
     assert sphere.spec == "sphere" and get_domain(sphere.to_dict()) == sphere
@@ -47,6 +47,9 @@ def test_the_sphere_is_a_domain():
     assert sphere.contains(P).all() and np.linalg.norm(P.mean(axis=0)) < 0.01
     assert sphere.area == pytest.approx(4 * np.pi)
     assert "sphere" in MAPS and choose_map(sphere, get_preset("fast"), False) == "sphere"
+    assert cli.main(["domains", "show", "sphere", "-o", str(tmp_path / "s.png")]) == 0
+    assert capsys.readouterr().out.startswith("sphere: area 12.5664, 0 boundary loop(s)")
+    assert (tmp_path / "s.png").read_bytes()[:8] == PNG_SIGNATURE
 
 
 def test_ellipsoid_cloud_maps_onto_the_sphere_without_flips(ellipsoid, ellipsoid_map):

@@ -223,6 +223,8 @@ def plot_domain(domain, path, n: int = 2000, seed: int = 0, title: str | None = 
     if not domain.bounded:
         raise ValueError(f"domain {domain.name!r} has no region to draw")
     S = domain.sample(n, seed=seed)  # (n, 2); ValueError for a bad n
+    if domain.closed:  # the sphere: its sample seen from both poles and equirectangular
+        return plot_sphere(S, path, title=title or f"{domain.label}: area {domain.area:.2f}")
     fig = _new_figure((6.0, 5.4))
     ax = fig.add_subplot()
     size = float(np.clip(8000.0 / len(S), 0.5, 8.0))
