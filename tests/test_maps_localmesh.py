@@ -146,6 +146,7 @@ def test_closed_surface_is_refused_with_one_line():
     with pytest.raises(InputError) as info:
         parametrize(d, normals=d, progress=False)
     assert str(info.value) == CLOSED_SURFACE and "\n" not in CLOSED_SURFACE
+    assert "--domain sphere" in CLOSED_SURFACE
 
 
 @pytest.mark.parametrize("bad, message", [

@@ -265,6 +265,9 @@ def run(args) -> int:
         "method": "localmesh" if _map_record(result.history).get("kind") == "localmesh"
                   else "networks",
         "normals": _normals_used(result.history, normals is not None),
+        # The local mesh's topology (its repaired largest part): None without a local mesh.
+        "genus": _map_record(result.history).get("genus"),
+        "boundary_loops": _map_record(result.history).get("boundary_loops"),
         "denoise": result.denoise,
         "loss": {k: float(final[k]) for k in LOSS_TERMS if k in final},
         "landmark_hausdorff": final.get("landmark_hausdorff"),

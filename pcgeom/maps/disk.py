@@ -172,7 +172,8 @@ def disk_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, do
     has it already), returns and errors as :func:`pcgeom.maps.free.free_map` (the record adds
     ``onto``, the domain's spec)."""
     if start is None:
-        start = free_start(Xn, normals, config, progress=progress, outlier=outlier)
+        start = free_start(Xn, normals, config, progress=progress, outlier=outlier,
+                           onto=domain.label)
     t0 = time.perf_counter()
     uv, mesh, _, record = start
     uv = np.asarray(domain.center) + domain.radius * conformal_disk(Xn, mesh, uv)

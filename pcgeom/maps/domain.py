@@ -580,7 +580,7 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
     from scipy.spatial import cKDTree
 
     if start is None:
-        start = free_start(Xn, normals, config, progress=progress)
+        start = free_start(Xn, normals, config, progress=progress, onto=domain.label)
     t0 = time.perf_counter()
     uv, mesh, normals, record = start
     tree = cKDTree(Xn)

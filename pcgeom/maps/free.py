@@ -49,7 +49,7 @@ from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
 from ._sparse import fill_order, ordering_name, solver_name, spd_factor
 from .localmesh import (MIN_MESHED, LocalMesh, _interpolate_rest, _submesh, local_mesh, mesh_cloud,
-                        mesh_flips, mesh_normals)
+                        mesh_flips, mesh_normals, topology_record)
 from .refine import refine
 
 __all__ = ["lscm_free", "conformal_factor", "free_map", "free_start"]
@@ -277,11 +277,13 @@ def conformal_factor(X: np.ndarray, U: np.ndarray, neighbours: int = 8) -> np.nd
 
 
 def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
-               progress: bool, outlier: np.ndarray | None = None
+               progress: bool, outlier: np.ndarray | None = None, onto: str = "free"
                ) -> tuple[np.ndarray, LocalMesh, np.ndarray, dict]:
     """The local mesh of the cloud (:func:`pcgeom.maps.localmesh.mesh_cloud`; ``outlier``:
     its strays, when already found) and its free LSCM map: where every local-mesh map
-    starts. With estimated normals and a map that turns over more than
+    starts; a closed cloud is refused before any map (``onto``: the planar domain's name,
+    :func:`pcgeom.maps.topology.require_open`). With estimated normals and a map that turns
+    over more than
     ``LocalMeshConfig.normal_round_flips`` of its own triangles, the normal rounds follow
     (step 4 of the module's description).
 
@@ -295,7 +297,7 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
                                        settings.normal_neighbours, progress=progress,
                                        normal_scales=settings.normal_scales,
                                        normal_tolerance=settings.normal_tolerance,
-                                       outlier=outlier)
+                                       outlier=outlier, onto=onto)
 
     def solve(mesh: LocalMesh) -> tuple[np.ndarray, dict]:
         stats: dict = {}
@@ -370,7 +372,7 @@ def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, outlier: np.nd
     if kept:
         mesh = best[1]
         record.update(faces=mesh.n_faces, boundary_edges=mesh.boundary_edges,
-                      unmeshed=int((~mesh.main).sum()))
+                      unmeshed=int((~mesh.main).sum()), **topology_record(mesh.topology))
     return best
 
 

@@ -34,9 +34,10 @@ from ..neighbours import (Neighbours, adaptive_pca, find_outliers, local_pca, sc
                           surface_variation)
 from ..progress import Progress
 from .normals import orient_normals
+from .topology import PLANAR_CLOSED, SPACING_NEIGHBOURS, Topology, repair, require_open
 
 __all__ = ["LocalMesh", "local_mesh", "mesh_cloud", "mesh_flips", "mesh_normals",
-           "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
+           "topology_record", "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
 
 MIN_MESHED = 0.5
 """The smallest share of the points the local mesh's main part must hold."""
@@ -59,12 +60,9 @@ are never flat)."""
 NOT_A_SURFACE = ("the cloud does not look like one sampled surface (its points fill a volume, "
                  "or most are strays); check the input")
 
-CLOSED_SURFACE = (
-    "the cloud looks like a closed surface (its local mesh has no boundary), and a closed "
-    "surface has no planar map without a cut: cut it open first (remove a cap or a strip of "
-    "points)"
-)
-"""The message of the :class:`InputError` for a closed surface."""
+CLOSED_SURFACE = PLANAR_CLOSED.format(domain="free")
+"""The message of the :class:`InputError` for a closed genus-0 surface onto the free boundary
+(:func:`pcgeom.maps.topology.closed_message` gives it for any domain and genus)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,6 +77,9 @@ class LocalMesh:
     """Edges of the whole mesh that belong to one triangle only."""
     candidates: int
     """Distinct triangles the fans proposed."""
+    topology: Topology | None = None
+    """The topology of the mesh's largest part and its repairs (:mod:`pcgeom.maps.topology`;
+    None for a mesh not built by :func:`local_mesh`)."""
 
     @property
     def n_faces(self) -> int:
@@ -86,13 +87,11 @@ class LocalMesh:
 
     @property
     def looks_closed(self) -> bool:
-        """Fewer boundary edges than ``sqrt(N) / 2``: the cloud samples a closed surface.
-
-        An open surface has a rim of about the square root of its point count or more
-        (face_human_choi: 683 boundary edges for 17157 points, 5.2 sqrt(N); peaks_7holes_choi
-        3.7 sqrt(N)); the closed david head gives none.
-        """
-        return self.boundary_edges < 0.5 * np.sqrt(len(self.main))
+        """The repaired mesh's largest part has no boundary loop (:attr:`topology`): the cloud
+        samples a closed surface. A mesh without a topology: no boundary edge."""
+        if self.topology is not None:
+            return self.topology.closed
+        return self.boundary_edges == 0
 
 
 _MIN_QUALITY = 1e-4
@@ -302,9 +301,15 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     candidates = kept[_fans(X[kept], normals[kept], neighbours, progress, knn=knn)]
     faces, n_candidates = _merge(X, normals, candidates)
     del candidates
+    spacing = None
+    if knn is not None and knn.k >= SPACING_NEIGHBOURS:
+        spacing = np.zeros(n)
+        spacing[kept] = knn.first(SPACING_NEIGHBOURS)[0][:, 1:].mean(axis=1)
+    faces, topology = repair(X, normals, faces, exclude=exclude, spacing=spacing)
     main = main_part(faces, n)
     boundary = int(edge_sides(faces)[1].sum())
-    return LocalMesh(faces=faces, main=main, boundary_edges=boundary, candidates=n_candidates)
+    return LocalMesh(faces=faces, main=main, boundary_edges=boundary, candidates=n_candidates,
+                     topology=topology)
 
 
 def mesh_normals(X: np.ndarray, mesh: LocalMesh, previous: np.ndarray) -> np.ndarray:
@@ -361,7 +366,8 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
                normal_neighbours: int, *, progress: bool,
                normal_scales: tuple[int, ...] = (6, 8, 12, 16, 24),
                normal_tolerance: float = 0.03, outlier: np.ndarray | None = None,
-               closed: bool = False) -> tuple[LocalMesh, np.ndarray, dict]:
+               closed: bool = False, onto: str | None = "free"
+               ) -> tuple[LocalMesh, np.ndarray, dict]:
     """Outliers, the surface test, normals and the local mesh of a normalized cloud.
 
     Parameters
@@ -380,6 +386,9 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     closed : bool
         The mesh is for a closed surface (the sphere map, :mod:`pcgeom.maps.sphere`): no
         refusal of a closed cloud.
+    onto : str or None
+        The planar domain the map is for (its name in the message): a closed cloud is
+        refused (:func:`pcgeom.maps.topology.require_open`). None: no test.
 
     Returns
     -------
@@ -390,13 +399,15 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
         The start of the run's history record: ``normals`` (``"input"`` or
         ``"estimated"``), ``neighbours``, ``faces``, ``boundary_edges``, ``outliers`` (stray
         points, :func:`pcgeom.neighbours.find_outliers`), ``unmeshed`` (points outside the mesh's
-        main part, outliers included).
+        main part, outliers included), ``genus``, ``boundary_loops`` and ``topology``
+        (the repaired mesh's :class:`pcgeom.maps.topology.Topology`, as a dict).
 
     Raises
     ------
     InputError
         The cloud fills a volume (:data:`NOT_A_SURFACE`), less than :data:`MIN_MESHED` of it
-        fits one local mesh, or it samples a closed surface (:data:`CLOSED_SURFACE`).
+        fits one local mesh, or it samples a closed surface and ``onto`` is planar
+        (:func:`pcgeom.maps.topology.closed_message`).
     """
     outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, bool)
     inliers = np.flatnonzero(~outlier)
@@ -429,14 +440,33 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     if meshed < MIN_MESHED:
         raise InputError(f"only {100 * meshed:.0f}% of the points fit one local mesh: "
                          + NOT_A_SURFACE)
-    if mesh.looks_closed and not closed:
-        raise InputError(CLOSED_SURFACE)
+    if onto is not None and not closed:
+        require_open(mesh.topology, onto)
     record = {"stage": "localmesh", "kind": "localmesh", "normals": source,
               "neighbours": neighbours, "normal_scale": float(np.median(scale)),
               "faces": mesh.n_faces,
               "boundary_edges": mesh.boundary_edges, "outliers": int(outlier.sum()),
-              "unmeshed": int((~mesh.main).sum())}
+              "unmeshed": int((~mesh.main).sum()), **topology_record(mesh.topology)}
     return mesh, normals, record
+
+
+def topology_record(topology: Topology | None) -> dict:
+    """The history's topology fields of a local mesh: ``genus``, ``boundary_loops`` and the
+    whole ``topology`` (:meth:`pcgeom.maps.topology.Topology.to_dict`)."""
+    if topology is None:
+        return {}
+    return {"genus": topology.genus, "boundary_loops": topology.boundary_loops,
+            "topology": topology.to_dict()}
+
+
+RIM_SLIVER = 2.0 * np.pi / 3.0
+"""A rim triangle whose angle opposite its rim edge is wider than this (radians) is a sliver
+that :func:`mesh_flips` leaves out (the disk map's own peel angle)."""
+
+
+def _face_keys(F: np.ndarray, n: int) -> np.ndarray:
+    """One integer per triangle of ``F`` (indices below ``n``), whatever its corners' order."""
+    return np.sort(np.asarray(F, dtype=np.int64), axis=1) @ np.array([n * n, n, 1])
 
 
 def mesh_flips(X: np.ndarray, mesh: LocalMesh, U: np.ndarray,

@@ -248,7 +248,8 @@ def parametrize(
     start, decided = None, {}
     if kind in ("free", "disk", "domain"):
         # The local mesh and its free map, where every local-mesh map starts.
-        start = free_start(Xn, normals, config, progress=progress, outlier=outlier)
+        start = free_start(Xn, normals, config, progress=progress, outlier=outlier,
+                           onto=domain.label)
     if kind == "free":
         uv, lam_inv, record = free_map(Xn, normals, config, device=dev, dtype=dtype, seed=seed,
                                        progress=progress, start=start)

@@ -1,0 +1,617 @@
+"""The topology of the local mesh: measured, repaired, and the refusal of closed clouds on
+planar domains (not in the paper).
+
+The local mesh (:mod:`pcgeom.maps.localmesh`) is edge-manifold and consistently oriented, but
+its topology need not be the surface's: where fans disagree it leaves small holes, two fans
+can meet at one vertex (a pinch), and where two sheets nearly touch its triangles can bridge
+them (a handle). A closed cloud then shows boundary loops and slips past a test on its
+boundary into a folded planar map. This module measures the mesh's topology and repairs it:
+
+1. **Holes the sampling can leave are filled.** Each boundary loop (libigl's loops of the mesh
+   with its pinched vertices split, each cut at its repeated vertices into simple loops) is
+   triangulated in the plane of its points' normals, with the unmeshed points inside it (a
+   Delaunay triangulation kept inside the loop). The hole's width is the largest circle its
+   fill leaves empty (each triangle's smallest enclosing circle), in the local spacing (the
+   mean length of the mesh's edges at the loop's points). The sampling's own evidence sets
+   the bound: the mesh's triangles are the empty circles the point density leaves on the
+   surface, and a hole no wider than the widest of them (:data:`HOLE_QUANTILE` of their
+   widths, times :data:`HOLE_MARGIN`) is one the sampling can leave, not one the surface has.
+   Wider holes stay: they are the surface's own. A fill whose triangles face away from the
+   points' normals, or that would give an edge a third triangle, is not made.
+2. **Pinches** (libigl's ``is_vertex_manifold``) that a fill joined are repaired; the rest are
+   split for the count (each fan its own vertex: libigl's ``split_nonmanifold``) and kept in
+   the mesh (LSCM maps both fans; the disk and domain maps drop the smaller).
+
+The report, :class:`Topology`, is of the repaired mesh's largest part (the one every map
+uses): Euler characteristic ``chi = V - E + F`` (pinches split), boundary loops ``b``, genus
+``(2 - chi - b) / 2``, and the counts of the repairs. :func:`require_open` refuses a closed
+one on a planar domain.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
+
+HOLE_MARGIN = 1.35
+"""A hole is filled, and a triangle kept, when its width is at most this times the widest
+empty circle the sampling leaves (:func:`widest_empty`)."""
+
+TRIAL_ROUNDS = 3
+"""Rounds of the trial that closes a mesh whose short loops no flat fill closes."""
+
+GROW_LOOP = 3.0
+"""In that trial, loops up to this times as long as a circle of the widest empty radius are
+opened further and filled again."""
+
+SPACING_NEIGHBOURS = 6
+"""Nearest points whose mean distance is a point's local spacing."""
+
+
+@dataclass(frozen=True)
+class Topology:
+    """The topology of a local mesh's largest part, after its repair, and the repairs."""
+
+    closed: bool
+    """No boundary loop: the cloud samples a closed surface."""
+    genus: int
+    """Handles: ``(2 - euler - boundary_loops) / 2``."""
+    boundary_loops: int
+    """Boundary loops (pinched vertices split)."""
+    euler: int
+    """Euler characteristic ``V - E + F`` (pinched vertices split)."""
+    components: int
+    """Parts of the whole mesh joined through edges (the largest is the one measured)."""
+    vertices: int
+    faces: int
+    pinched: int
+    """Pinched vertices left (two or more fans at one vertex, libigl's
+    ``is_vertex_manifold``); each counts as split."""
+    pinches_split: int
+    """Pinched vertices of the mesh before its repair that are still pinched (split for the
+    count)."""
+    pinches_repaired: int
+    """Pinched vertices of the mesh before its repair that a fill made manifold."""
+    holes_filled: int
+    spans_cut: int
+    """Triangles wider than the sampling leaves (they spanned a hole of the surface)."""
+    bridges_cut: int
+    euler_before: int
+    boundary_loops_before: int
+    genus_before: int
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+# --------------------------------------------------------------------------- measure
+
+
+def _main_faces(faces: np.ndarray) -> tuple[np.ndarray, int]:
+    """The faces of the largest part of ``faces`` joined through edges, and how many parts."""
+    import igl
+
+    if len(faces) == 0:
+        return faces, 0
+    count, label = igl.facet_components(np.ascontiguousarray(faces, dtype=np.int64))
+    return faces[label == np.bincount(label).argmax()], int(count)
+
+
+def measure(faces: np.ndarray) -> dict:
+    """Euler characteristic, boundary loops, genus, parts and pinched vertices of the largest
+    part of the mesh ``faces`` (M, 3) (edge-manifold), its pinched vertices split.
+
+    Returns
+    -------
+    dict
+        ``euler``, ``boundary_loops``, ``genus``, ``components``, ``vertices``, ``faces``,
+        ``pinched``.
+    """
+    import igl
+
+    main, parts = _main_faces(np.asarray(faces, dtype=np.int64))
+    if len(main) == 0:
+        return {"euler": 0, "boundary_loops": 0, "genus": 0, "components": 0, "vertices": 0,
+                "faces": 0, "pinched": 0}
+    main = np.ascontiguousarray(main)
+    used = np.unique(main)
+    pinched = int((~igl.is_vertex_manifold(main))[used].sum())
+    split, _ = igl.split_nonmanifold(main)
+    euler = int(igl.euler_characteristic(split))
+    loops = len(igl.boundary_loop_all(split))
+    return {"euler": euler, "boundary_loops": loops, "genus": (2 - euler - loops) // 2,
+            "components": parts, "vertices": len(used), "faces": len(main),
+            "pinched": pinched}
+
+
+# --------------------------------------------------------------------------- loops
+
+
+def _directed(F: np.ndarray) -> np.ndarray:
+    return np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+
+
+def simple_loops(faces: np.ndarray) -> list[np.ndarray]:
+    """The boundary loops of the edge-manifold, consistently oriented mesh ``faces``, each
+    cut at its repeated vertices into simple loops, in the direction of the faces' boundary
+    edges (each loop edge ``a -> b`` is an edge of a triangle as it turns)."""
+    import igl
+
+    F = np.ascontiguousarray(faces, dtype=np.int64)
+    if len(F) == 0:
+        return []
+    split, index = igl.split_nonmanifold(F)
+    n = int(F.max()) + 1
+    directed = _directed(F)
+    keys = set((directed[:, 0] * n + directed[:, 1]).tolist())
+    out = []
+    for loop in igl.boundary_loop_all(split):
+        loop = index[np.asarray(loop, dtype=np.int64)]
+        if len(loop) < 3:
+            continue
+        if int(loop[0]) * n + int(loop[1]) not in keys:
+            loop = loop[::-1]
+        out.extend(_cut_at_repeats(loop))
+    return out
+
+
+def _cut_at_repeats(loop: np.ndarray) -> list[np.ndarray]:
+    """A closed walk cut into simple cycles: each time a vertex comes back, the cycle since
+    its last visit is cut off (cycles of fewer than 3 vertices are dropped)."""
+    stack: list[int] = []
+    where: dict[int, int] = {}
+    cycles = []
+    for v in loop.tolist() + [int(loop[0])]:
+        if v in where:
+            start = where[v]
+            cycle = stack[start:]
+            if len(cycle) >= 3:
+                cycles.append(np.asarray(cycle, dtype=np.int64))
+            for w in cycle[1:]:
+                del where[w]
+            del stack[start + 1:]
+        else:
+            where[v] = len(stack)
+            stack.append(v)
+    return cycles
+
+
+# --------------------------------------------------------------------------- widths
+
+
+def enclosing_radius(X: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(M,) radius of each triangle's smallest enclosing circle: its circumradius when it is
+    acute, half its longest edge otherwise (an obtuse sliver's circumcircle is no empty circle
+    of the surface)."""
+    e = np.stack([((X[F[:, (q + 1) % 3]] - X[F[:, (q + 2) % 3]]) ** 2).sum(axis=1)
+                  for q in range(3)], axis=1)
+    longest = e.max(axis=1)
+    area2 = np.linalg.norm(np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]), axis=1)
+    circum = np.sqrt(e.prod(axis=1)) / np.maximum(2.0 * area2, 1e-300)
+    obtuse = 2.0 * longest >= e.sum(axis=1)
+    return np.where(obtuse, 0.5 * np.sqrt(longest), circum)
+
+
+def vertex_spacing(X: np.ndarray, F: np.ndarray, n: int) -> np.ndarray:
+    """(n,) mean length of the mesh's edges at each vertex (0 where none)."""
+    E = _directed(F)
+    length = np.linalg.norm(X[E[:, 0]] - X[E[:, 1]], axis=1)
+    total = np.bincount(E.ravel(), np.repeat(length, 2), minlength=n)
+    count = np.bincount(E.ravel(), minlength=n)
+    return total / np.maximum(count, 1)
+
+
+# --------------------------------------------------------------------------- fill
+
+
+def _plane(X: np.ndarray, normals: np.ndarray, loop: np.ndarray) -> np.ndarray:
+    """An orthonormal frame ``(a, b, n)`` (3, 3) of the loop's plane: ``n`` the mean of its
+    points' normals, or the least-variance direction of its points where they disagree."""
+    n = normals[loop].sum(axis=0)
+    if np.linalg.norm(n) < 0.5 * len(loop):
+        P = X[loop] - X[loop].mean(axis=0)
+        n = np.linalg.svd(P, full_matrices=False)[2][2]
+        if n @ normals[loop].sum(axis=0) < 0:
+            n = -n
+    n = n / np.linalg.norm(n)
+    a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    return np.stack([a, np.cross(n, a), n])
+
+
+def fill_loop(X: np.ndarray, normals: np.ndarray, loop: np.ndarray, inner: np.ndarray,
+              edges: np.ndarray | None = None, folds: bool = False) -> np.ndarray | None:
+    """Triangles (k, 3) that fill the simple boundary loop ``loop`` (in the faces' boundary
+    direction), over it and the candidate points ``inner`` that lie inside it, oriented as
+    the mesh; None when the loop has no simple shape in its plane, or its fill's rim is not
+    the loop, or a fill triangle faces away from its corners' normals. ``edges``: the mesh's
+    edges (``a * N + b``, ``a < b``), which no fill triangle may hold but the loop's own.
+
+    The loop and the points are projected on the plane of the loop's normals
+    (:func:`_plane`); the Delaunay triangles inside the loop are the fill. Where the loop's
+    edges are not all Delaunay edges, the constrained Delaunay triangulation of the loop
+    alone (shapely) is."""
+    import shapely
+    from scipy.spatial import Delaunay, QhullError
+
+    frame = _plane(X, normals, loop)
+    centre = X[loop].mean(axis=0)
+    Q = (X[loop] - centre) @ frame[:2].T
+    polygon = shapely.Polygon(Q)
+    if not polygon.is_valid or polygon.area <= 0:
+        return _least_area_fill(X, normals, loop, edges, folds)
+    region = polygon.buffer(1e-9 * np.sqrt(polygon.area))
+    shapely.prepare(region)
+    if len(inner):
+        # Points on the loop's side of the surface, inside the loop's outline.
+        R = (X[inner] - centre) @ frame.T
+        reach = np.linalg.norm(Q, axis=1).max()
+        near = (np.abs(R[:, 2]) < reach) & (normals[inner] @ frame[2] > 0)
+        inner, R = inner[near], R[near]
+        inside = shapely.contains_xy(polygon, R[:, 0], R[:, 1]) if len(inner) else []
+        inner, R = inner[inside], R[inside] if len(inner) else R
+    pts = np.concatenate([loop, inner]).astype(np.int64)
+    P = np.concatenate([Q, R[:, :2]]) if len(inner) else Q
+    T = None
+    if len(pts) > 3:
+        try:
+            T = Delaunay(P).simplices.astype(np.int64)
+        except QhullError:
+            T = None
+    else:
+        T = np.array([[0, 1, 2]])
+    if T is not None:
+        T = T[shapely.contains(region, shapely.polygons(P[T]))]
+        if not _rim_is(T, len(loop)):
+            T = None
+    if T is None:  # the loop alone, its edges kept
+        pts, P = loop, Q
+        tri = shapely.constrained_delaunay_triangles(polygon)
+        corners = np.array([np.asarray(t.exterior.coords)[:3] for t in tri.geoms])
+        lookup = {tuple(p): i for i, p in enumerate(np.round(Q, 12).tolist())}
+        try:
+            T = np.array([[lookup[tuple(p)] for p in np.round(c, 12).tolist()] for c in corners])
+        except KeyError:
+            return None
+        if len(T) == 0 or not _rim_is(T, len(loop)):
+            return None
+    # Counter-clockwise in the plane (seen from the normals' side), then as the mesh: the
+    # fill holds each loop edge the other way round.
+    a, b = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    if (np.abs(cross) <= 1e-12 * polygon.area).any():
+        return None
+    T[cross < 0] = T[cross < 0][:, [0, 2, 1]]
+    F = pts[T]
+    if _has_directed(F, int(loop[0]), int(loop[1])):
+        F = F[:, [0, 2, 1]]
+    # Each triangle faces the side of its corners' normals.
+    face = np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
+    if (np.einsum("md,md->m", face, normals[F].sum(axis=1)) <= 0).any() or (
+            edges is not None and _holds(F, edges, len(X))):
+        return _least_area_fill(X, normals, loop, edges, folds)
+    return F
+
+
+def _holds(F: np.ndarray, edges: np.ndarray, n: int) -> bool:
+    """Whether a triangle of ``F`` has an edge of ``edges`` (sorted ``a * n + b``, ``a < b``)
+    that is not on the loop (an edge of one triangle of ``F``)."""
+    D = np.sort(_directed(F), axis=1)
+    key = D[:, 0] * n + D[:, 1]
+    keys, count = np.unique(key, return_counts=True)
+    inner = keys[count == 2]
+    at = np.minimum(np.searchsorted(edges, inner), len(edges) - 1)
+    return bool((edges[at] == inner).any())
+
+
+LEAST_AREA_LOOP = 60
+"""Loops of at most this many points whose outline crosses itself in their plane are filled
+by their least-area triangulation in space (:func:`_least_area_fill`)."""
+
+
+def _least_area_fill(X: np.ndarray, normals: np.ndarray, loop: np.ndarray,
+                     edges: np.ndarray | None = None, folds: bool = False
+                     ) -> np.ndarray | None:
+    """The triangulation of the loop's polygon in space (no new point) of least total area,
+    triangles facing away from their corners' normals priced out (dynamic programming over the polygon's diagonals, O(k^3); Barequet and
+    Sharir's, as in Liepa's hole filling), oriented as the mesh (each loop edge the other way
+    round); no diagonal may be an edge of ``edges`` (the mesh's: ``a * N + b``, ``a < b``).
+    None for loops of more than :data:`LEAST_AREA_LOOP` points, or when every triangulation
+    needs such a diagonal or (unless ``folds``) a triangle facing away (a fold: no fill of
+    it maps flat)."""
+    k = len(loop)
+    if k > LEAST_AREA_LOOP:
+        return None
+    P, Nv = X[loop], normals[loop]
+    i, m, j = np.meshgrid(np.arange(k), np.arange(k), np.arange(k), indexing="ij")
+    face = np.cross(P[j] - P[i], P[m] - P[i])  # (i, j, m): each loop edge reversed
+    area = 0.5 * np.linalg.norm(face, axis=-1)
+    away = np.einsum("ijmd,ijmd->ijm", face, Nv[i] + Nv[j] + Nv[m]) <= 0
+    far = 10.0 * (area.sum() / max(k, 1) ** 2 + 1e-300) * k
+    cost = area + away * far
+    if edges is not None:
+        lo, hi = np.minimum.outer(loop, loop), np.maximum.outer(loop, loop)
+        key = lo * len(X) + hi
+        at = np.minimum(np.searchsorted(edges, key), len(edges) - 1)
+        blocked = edges[at] == key
+        ring = np.abs(np.subtract.outer(np.arange(k), np.arange(k)))
+        blocked &= (ring != 1) & (ring != k - 1)  # the loop's own edges are the mesh's
+        cost = np.where(blocked[i, j] | blocked[j, m] | blocked[m, i], np.inf, cost)
+    best = np.zeros((k, k))
+    split = np.zeros((k, k), dtype=np.int64)
+    for gap in range(2, k):
+        for a in range(0, k - gap):
+            b = a + gap
+            mids = np.arange(a + 1, b)
+            total = best[a, mids] + best[mids, b] + cost[a, mids, b]
+            pick = int(np.argmin(total))
+            best[a, b], split[a, b] = total[pick], mids[pick]
+    if not np.isfinite(best[0, k - 1]) or (best[0, k - 1] >= far and not folds):
+        return None
+    tris, stack = [], [(0, k - 1)]
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            continue
+        c = split[a, b]
+        tris.append((a, b, c))
+        stack += [(a, c), (c, b)]
+    F = loop[np.asarray(tris, dtype=np.int64)]
+    if _has_directed(F, int(loop[0]), int(loop[1])):
+        F = F[:, [0, 2, 1]]
+    return F
+
+
+def _rim_is(T: np.ndarray, k: int) -> bool:
+    """Whether the triangles ``T`` (over points ``0 .. k - 1`` of a loop and others) have
+    exactly the loop's edges ``(i, i + 1)`` as their rim, and hold every loop point."""
+    if len(T) == 0:
+        return False
+    E = np.sort(_directed(T), axis=1)
+    keys, count = np.unique(E[:, 0] * (T.max() + 1) + E[:, 1], return_counts=True)
+    rim = keys[count == 1]
+    i = np.arange(k)
+    j = (i + 1) % k
+    loop = np.sort(np.minimum(i, j) * (T.max() + 1) + np.maximum(i, j))
+    return len(rim) == k and np.array_equal(np.sort(rim), loop) and (count <= 2).all()
+
+
+def _has_directed(F: np.ndarray, a: int, b: int) -> bool:
+    D = _directed(F)
+    return bool(((D[:, 0] == a) & (D[:, 1] == b)).any())
+
+
+# --------------------------------------------------------------------------- repair
+
+
+def knn_spacing(X: np.ndarray, k: int = SPACING_NEIGHBOURS) -> np.ndarray:
+    """(N,) each point's local spacing: the mean distance to its ``k`` nearest points."""
+    from scipy.spatial import cKDTree
+
+    dist = cKDTree(X).query(X, k + 1)[0]
+    return dist[:, 1:].mean(axis=1)
+
+
+def widest_empty(widths: np.ndarray) -> float:
+    """The widest empty circle the sampling leaves among ``M = len(widths)`` triangles, from
+    the bulk of their widths: the survival ``S(t) = P(w > t)`` taken as ``exp(a - c t^2)``
+    (empty circles of a random sample: a Gaussian tail in the radius) through the median and
+    the 90th percentile, solved for ``S = 1 / M``. The bulk, not the tail: the triangles that
+    span the surface's holes (a few percent) leave it alone."""
+    if len(widths) < 10:
+        return float(np.max(widths, initial=0.0))
+    q50, q90 = np.quantile(widths, [0.5, 0.9])
+    if q90 <= q50:
+        return float(q90)
+    c = np.log(5.0) / (q90 ** 2 - q50 ** 2)
+    a = np.log(0.5) + c * q50 ** 2
+    return float(np.sqrt((a + np.log(len(widths))) / c))
+
+
+def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
+           exclude: np.ndarray | None = None, spacing: np.ndarray | None = None
+           ) -> tuple[np.ndarray, Topology]:
+    """The local mesh with the surface's holes opened and the holes its sampling can leave
+    filled (steps 1-2 of the module), and the topology of the result.
+
+    Parameters
+    ----------
+    X : (N, 3) float64
+        The points.
+    normals : (N, 3) float64
+        Their oriented unit normals (rows of excluded points unused).
+    faces : (M, 3) int64
+        The local mesh: edge-manifold, consistently oriented.
+    exclude : (N,) bool, optional
+        Points no fill may use (strays).
+    spacing : (N,) float64, optional
+        Each point's local spacing (:func:`knn_spacing`), when already known.
+
+    Returns
+    -------
+    faces : (M', 3) int64
+        The faces less those wider than the sampling leaves, with the fills (edge-manifold,
+        consistently oriented).
+    Topology
+    """
+    from scipy.spatial import cKDTree
+
+    faces = np.asarray(faces, dtype=np.int64)
+    n = len(X)
+    before = measure(faces)
+    pinched_before = _pinched(faces, n)
+    filled = carved = 0
+    if len(faces):
+        h = knn_spacing(X) if spacing is None else np.asarray(spacing, dtype=np.float64)
+        width = enclosing_radius(X, faces) / np.maximum(h[faces].mean(axis=1), 1e-300)
+        bound = HOLE_MARGIN * widest_empty(width)
+        if _has_long_loop(X, faces, h, GROW_LOOP * bound):
+            # A loop longer than any hole the sampling leaves: an open surface. Its mesh is
+            # left as it is (its maps are as before), its topology measured.
+            after = measure(faces)
+            return faces, _topology(before, after, pinched_before, _pinched(faces, n), 0, 0)
+        faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude)
+        if len(stuck) or long:
+            # Loops left that no flat fill closes: the mesh overlaps itself there (noise,
+            # uneven sampling), on what may be a closed surface. Their points' triangles go
+            # and the larger holes are filled, folds allowed, a few times; kept only if that
+            # closes the mesh (a fold costs a planar map, and a closed cloud gets none).
+            trial, added = faces, 0
+            for _ in range(TRIAL_ROUNDS):
+                near = np.zeros(n, dtype=bool)
+                near[stuck] = True
+                trial = trial[~near[trial].any(axis=1)]
+                trial, more, stuck, long = _fill_pass(X, normals, trial, h, bound, exclude,
+                                                      folds=True, grow=GROW_LOOP)
+                added += more
+                if not (len(stuck) or long):
+                    break
+            if len(trial) and measure(trial)["boundary_loops"] == 0:
+                faces, filled = trial, filled + added
+    return faces, _topology(before, measure(faces), pinched_before, _pinched(faces, n), filled,
+                            carved)
+
+
+def _topology(before: dict, after: dict, pinched_before: np.ndarray,
+              pinched_after: np.ndarray, filled: int, carved: int) -> Topology:
+    return Topology(
+        closed=after["boundary_loops"] == 0 and after["faces"] > 0, genus=after["genus"],
+        boundary_loops=after["boundary_loops"], euler=after["euler"],
+        components=after["components"], vertices=after["vertices"], faces=after["faces"],
+        pinched=int(pinched_after.sum()),
+        pinches_split=int((pinched_before & pinched_after).sum()),
+        pinches_repaired=int((pinched_before & ~pinched_after).sum()),
+        holes_filled=filled, spans_cut=carved, bridges_cut=0, euler_before=before["euler"],
+        boundary_loops_before=before["boundary_loops"], genus_before=before["genus"])
+
+
+def _has_long_loop(X: np.ndarray, faces: np.ndarray, h: np.ndarray, radius: float) -> bool:
+    """Whether a boundary loop of ``faces`` is longer than a circle of ``radius`` local
+    spacings (the median of its points')."""
+    for loop in simple_loops(faces):
+        perimeter = np.linalg.norm(X[np.roll(loop, -1)] - X[loop], axis=1).sum()
+        if perimeter > 2.0 * np.pi * radius * float(np.median(h[loop])):
+            return True
+    return False
+
+
+def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
+               bound: float, exclude: np.ndarray | None, folds: bool = False,
+               grow: float = 1.0) -> tuple[np.ndarray, int, np.ndarray, int]:
+    """One pass of step 1's fills over the loops of ``faces``: the faces with the fills, how
+    many, and the points of the loops that the sampling can leave (no longer than a circle
+    of radius ``grow * bound`` spacings) but that no fill closes (every fill folds, unless
+    ``folds``, or needs an edge the mesh has), and how many loops are left that are longer."""
+    from scipy.spatial import cKDTree
+
+    n = len(X)
+    used = np.zeros(n, dtype=bool)
+    used[faces.ravel()] = True
+    if exclude is not None:
+        used |= np.asarray(exclude, dtype=bool)
+    free = np.flatnonzero(~used)
+    tree = cKDTree(X[free]) if len(free) else None
+    U = np.sort(_directed(faces), axis=1)
+    edges = np.unique(U[:, 0] * n + U[:, 1])
+    del U
+
+    def narrow(F: np.ndarray) -> bool:
+        return float((enclosing_radius(X, F) / np.maximum(h[F].mean(axis=1), 1e-300)).max()
+                     ) <= bound
+
+    fills, stuck, long = [], [], 0
+    for loop in simple_loops(faces):
+        inner = np.zeros(0, dtype=np.int64)
+        centre = X[loop].mean(axis=0)
+        if tree is not None:
+            reach = float(np.linalg.norm(X[loop] - centre, axis=1).max())
+            inner = free[np.asarray(tree.query_ball_point(centre, reach), dtype=np.int64)]
+        F = fill_loop(X, normals, loop, inner, edges, folds)
+        if F is None:
+            # No fill without a fold or a third triangle on an edge: the mesh overlaps
+            # itself there. A loop no longer than a circle the sampling leaves is stuck.
+            perimeter = np.linalg.norm(X[np.roll(loop, -1)] - X[loop], axis=1).sum()
+            if perimeter <= grow * 2.0 * np.pi * bound * float(np.median(h[loop])):
+                stuck.append(loop)
+            else:
+                long += 1
+            continue
+        if narrow(F):
+            fills.append(F)
+        else:  # a hole of the surface
+            long += 1
+    added = 0
+    if fills:
+        faces, added = _add_fills(faces, fills)
+    return (faces, added, np.concatenate(stuck) if stuck else np.zeros(0, dtype=np.int64),
+            long)
+
+
+def _pinched(faces: np.ndarray, n: int) -> np.ndarray:
+    """(n,) bool: vertices of ``faces`` with more than one fan (libigl)."""
+    import igl
+
+    out = np.zeros(n, dtype=bool)
+    if len(faces):
+        F = np.ascontiguousarray(faces, dtype=np.int64)
+        manifold = igl.is_vertex_manifold(F)
+        used = np.unique(F)
+        out[used] = ~manifold[used]
+    return out
+
+
+def _add_fills(faces: np.ndarray, fills: list[np.ndarray]) -> tuple[np.ndarray, int]:
+    """``faces`` with the fills whose directed edges are taken by no triangle before them
+    (the mesh's, then the earlier fills'); how many fills were added."""
+    n = int(max(faces.max(), max(F.max() for F in fills))) + 1
+    taken = set((lambda D: (D[:, 0] * n + D[:, 1]).tolist())(_directed(faces)))
+    kept = []
+    for F in fills:
+        D = _directed(F)
+        keys = (D[:, 0] * n + D[:, 1]).tolist()
+        if taken.isdisjoint(keys) and len(set(keys)) == len(keys):
+            taken.update(keys)
+            kept.append(F)
+    if not kept:
+        return faces, 0
+    return np.concatenate([faces, *kept]), len(kept)
+
+
+# --------------------------------------------------------------------------- refusal
+
+
+PLANAR_CLOSED = ("the cloud is a closed surface (genus 0): a planar domain ({domain}) has no "
+                 "map of it without a cut; map it with --domain sphere, or cut it open first")
+"""The message for a closed genus-0 cloud on a planar domain."""
+
+PLANAR_HANDLES = ("the cloud is a closed surface of genus {genus}: a planar domain ({domain}) "
+                  "has no map of it without cuts; cut it open first (remove a strip of points "
+                  "across each handle, and a cap)")
+"""The message for a closed cloud of higher genus on a planar domain."""
+
+
+def closed_message(topology: Topology, domain: str) -> str:
+    """The one-line refusal of a closed cloud on the planar domain named ``domain``."""
+    if topology.genus == 0:
+        return PLANAR_CLOSED.format(domain=domain)
+    return PLANAR_HANDLES.format(genus=topology.genus, domain=domain)
+
+
+def require_open(topology: Topology | None, domain: str) -> None:
+    """Refuse (:class:`InputError`, one line) a closed cloud on a planar domain: called where
+    the map is chosen, before any map is made.
+
+    Parameters
+    ----------
+    topology : Topology or None
+        The repaired local mesh's (None: not measured, nothing to refuse).
+    domain : str
+        The planar domain's name, as the message shows it (``free``, ``disk``, ...).
+    """
+    if topology is not None and topology.closed:
+        raise InputError(closed_message(topology, domain))

@@ -1,0 +1,96 @@
+"""The local mesh's topology (pcgeom.maps.topology): measured on analytic meshes, repaired on
+sampled clouds, and closed clouds refused on planar domains in one line."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pcgeom import InputError, parametrize
+from pcgeom.maps.localmesh import local_mesh
+from pcgeom.maps.topology import Topology, closed_message, measure, require_open
+from pcgeom.synthetic_closed import closed_surface
+
+
+def test_measure_of_analytic_meshes():
+    """The true triangulations: a sphere has Euler characteristic 2, a torus 0 (genus 1)."""
+    sphere = closed_surface("sphere", 400, sampling="grid")
+    torus = closed_surface("torus", 600, sampling="grid")
+    got = measure(sphere.faces)
+    assert (got["euler"], got["boundary_loops"], got["genus"], got["pinched"]) == (2, 0, 0, 0)
+    got = measure(torus.faces)
+    assert (got["euler"], got["boundary_loops"], got["genus"]) == (0, 0, 1)
+    # A cap cut off the sphere: one boundary loop, a disk.
+    top = sphere.points[:, 2] > 0.5
+    got = measure(sphere.faces[top[sphere.faces].all(axis=1)])
+    assert (got["euler"], got["boundary_loops"], got["genus"]) == (1, 1, 0)
+
+
+def test_a_pinched_vertex_is_counted_split():
+    """A grid whose centre vertex lost two opposite triangles of its star: its two fans meet
+    there only (libigl's is_vertex_manifold finds it). Split, the two gaps are one hole
+    through it: an annulus (Euler characteristic 0, two boundary loops, genus 0)."""
+    a, b = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+    p = (a * 5 + b).ravel()
+    F = np.concatenate([np.stack([p, p + 5, p + 1], 1), np.stack([p + 1, p + 5, p + 6], 1)])
+    star = np.flatnonzero((F == 12).any(axis=1))
+    X = np.column_stack([np.repeat(np.arange(5.0), 5), np.tile(np.arange(5.0), 5)])
+    angle = np.arctan2(*(X[F[star]].mean(axis=1) - X[12]).T[::-1])
+    ring = star[np.argsort(angle)]  # its six triangles around it
+    F = np.delete(F, [ring[0], ring[3]], axis=0)
+    got = measure(F)
+    assert got["pinched"] == 1
+    assert (got["euler"], got["boundary_loops"], got["genus"]) == (0, 2, 0), got
+
+
+@pytest.mark.parametrize("sampling", ["uniform", "grid", "scan"])
+def test_sampled_closed_surfaces_mesh_closed(sampling):
+    """The repaired local mesh of a sampled sphere is closed, genus 0 (today's mesh had
+    boundary loops on the uniform and scan samplings); a torus is genus 1."""
+    s = closed_surface("bumpy", 2000, sampling=sampling, seed=1)
+    mesh = local_mesh(s.points, s.normals, 24)
+    t = mesh.topology
+    assert t.closed and t.genus == 0 and t.euler == 2 and mesh.looks_closed, t
+    s = closed_surface("torus", 2000, sampling=sampling, seed=1)
+    t = local_mesh(s.points, s.normals, 24).topology
+    assert t.closed and t.genus == 1 and t.euler == 0, t
+
+
+def test_closed_clouds_are_refused_on_planar_domains_in_one_line():
+    sphere = closed_surface("ellipsoid", 2000, sampling="uniform")
+    for domain in ("free", "disk", "square"):
+        with pytest.raises(InputError, match=r"^the cloud is a closed surface \(genus 0\): a "
+                           rf"planar domain \({domain}\) has no map of it without a cut; map "
+                           r"it with --domain sphere, or cut it open first$"):
+            parametrize(sphere.points, domain, progress=False)
+    torus = closed_surface("torus", 2000, sampling="grid")
+    with pytest.raises(InputError, match=r"^the cloud is a closed surface of genus 1: a planar "
+                       r"domain \(free\) has no map of it without cuts; cut it open first"):
+        parametrize(torus.points, normals=torus.normals, progress=False)
+
+
+def test_require_open_and_the_record():
+    fields = dict(genus=0, boundary_loops=0, euler=2, components=1, vertices=10, faces=16,
+                  pinched=0, pinches_split=0, pinches_repaired=0, holes_filled=0, spans_cut=0,
+                  bridges_cut=0, euler_before=2, boundary_loops_before=0, genus_before=0)
+    closed = Topology(closed=True, **fields)
+    with pytest.raises(InputError) as info:
+        require_open(closed, "disk")
+    assert str(info.value) == closed_message(closed, "disk") and "\n" not in str(info.value)
+    require_open(Topology(closed=False, **{**fields, "boundary_loops": 1, "euler": 1}), "disk")
+    require_open(None, "free")
+    assert closed.to_dict()["euler"] == 2
+
+
+def test_open_surface_keeps_its_holes_and_reports_them():
+    """A square sheet with two round holes of radius 4 and 6 spacings (a jittered grid): the
+    map's record reports genus 0 and three boundary loops (the rim and both holes)."""
+    rng = np.random.default_rng(0)
+    g = np.stack(np.meshgrid(np.arange(60.0), np.arange(60.0)), -1).reshape(-1, 2)
+    g += rng.uniform(-0.2, 0.2, g.shape)
+    keep = (np.linalg.norm(g - (18, 20), axis=1) > 4) & (np.linalg.norm(g - (40, 38), axis=1) > 6)
+    g = g[keep]
+    X = np.column_stack([g, 3 * np.sin(g[:, 0] / 12) * np.cos(g[:, 1] / 15)])
+    result = parametrize(X, progress=False)
+    record = result.history[-1]
+    assert (record["genus"], record["boundary_loops"]) == (0, 3), record["topology"]
