@@ -125,9 +125,11 @@ def add_cloud_and_map(p: argparse.ArgumentParser) -> None:
                         "INPUT first, preset fast)")
 
 
-def load_free_map(args, points, purpose: str, domain=None, hint: str = ""):
+def load_free_map(args, points, purpose: str, domain=None, hint: str = "",
+                  closed_ok: bool = False):
     """The ``ParamResult`` of ``args.map``, checked to be a free-boundary map of ``points``,
-    or, with a bounded ``domain``, a map of ``points`` onto that very domain.
+    or, with a bounded ``domain``, a map of ``points`` onto that very domain; with
+    ``closed_ok`` and no ``domain``, a map onto a closed domain (the sphere) too.
 
     Raises
     ------
@@ -154,7 +156,7 @@ def load_free_map(args, points, purpose: str, domain=None, hint: str = ""):
             raise InputError(f"{args.map}: was trained onto the domain {trained.label!r}, not "
                              f"{domain.label!r} (--domain)")
         return result
-    if trained is not None:
+    if trained is not None and not (closed_ok and trained.closed):
         raise InputError(f"{args.map}: was trained onto the domain {trained.label!r}; "
                          f"{purpose} needs a free-boundary map (pcgeom param without --domain)"
                          + hint)

@@ -7,8 +7,9 @@ import os
 import sys
 
 from ..apps.boundary import detect_boundary
-from ..apps.reconstruct import (SIZES, check_mesh_path, reconstruct_on_domain,
-                                 reconstruct_surface, require_gmsh, texture_paths, write_mesh)
+from ..apps.reconstruct import (INTERPOLATIONS, SIZES, check_mesh_path, reconstruct_on_domain,
+                                 reconstruct_on_sphere, reconstruct_surface, require_gmsh,
+                                 texture_paths, write_mesh)
 from ..apps.texture import uv_scaling
 from ..config import get_preset, with_denoise
 from ..domains import get_domain
@@ -43,6 +44,10 @@ examples:
       maps the cloud onto the disk first (preset fast), then meshes the disk itself and lifts
       it (one boundary loop, the circle's); with --map, a map that 'pcgeom param scan.ply
       --domain disk' wrote
+  pcgeom reconstruct statue.ply --domain sphere --target-vertices 20000 --out statue_mesh.ply
+      a closed genus-0 cloud: maps it onto the sphere (preset fast), meshes the sphere and
+      lifts it; the mesh is closed (watertight, consistently oriented, genus 0). With --map,
+      a map that 'pcgeom param statue.ply --domain sphere' wrote (--domain may be left out)
   pcgeom reconstruct noisy_scan.ply --denoise auto --out mesh.ply
       fits the surface first when the scan is noisy (as by default): the mesh is lifted over
       the fitted points, not the noisy ones
@@ -59,6 +64,13 @@ The format follows the extension of --out: .ply (binary) or .obj (text, trimesh'
 Either carries the map as texture coordinates, one pair per vertex (OBJ vt, PLY texture_u
 texture_v): the vertex's position in the map, uv = (p - uv_offset) / uv_scale, which fills
 [0, 1] along the map's longer side and keeps its aspect (--json gives uv_offset and uv_scale).
+On the sphere (--domain sphere, or a map file onto it) the sphere is meshed, each vertex is
+located in the spherical triangulation of the map (the map's own mesh when the file has it and
+it covers the sphere, else the convex hull of the unit vectors; one that overlaps is refused)
+and lifted from the cloud by Phong tessellation of that triangle (--interpolation linear: the
+flat triangle); the mesh is checked to be watertight, consistently oriented and of Euler
+characteristic 2, and refused otherwise. It has no texture coordinates (the sphere has no
+seamless planar ones): --texture is refused.
 Needs gmsh (pip install 'gmsh>=4.11').
 """
 
@@ -67,13 +79,17 @@ def configure(p) -> None:
     """Add ``reconstruct``'s arguments to ``p``."""
     add_cloud_and_map(p)
     p.add_argument("--domain", metavar="SPEC",
-                   help="mesh this bounded domain (as in 'pcgeom param --domain'; the map must "
-                        "be onto it) instead of the region inside the detected loops")
+                   help="mesh this bounded domain or the sphere (as in 'pcgeom param "
+                        "--domain'; the map must be onto it) instead of the region inside the "
+                        "detected loops; a map onto the sphere needs no --domain")
     add_hole_options(p)
     p.add_argument("--size", choices=SIZES, default="uniform",
                    help="mesh size rule: uniform (default), or adaptive: size proportional to "
                         "lambda_inv^-1/2 of the map (finer where the map compresses the "
                         "surface)")
+    p.add_argument("--interpolation", choices=INTERPOLATIONS, default="phong",
+                   help="on the sphere: how a vertex is lifted inside the cloud's triangle, "
+                        "curved by Phong tessellation (default) or flat (linear)")
     add_denoise_option(p)
     p.add_argument("--target-vertices", type=int_at_least(3), default=5000, metavar="N",
                    help="about how many vertices the mesh gets (default: 5000)")
@@ -103,15 +119,23 @@ def run(args) -> int:
     domain = get_domain(args.domain) if args.domain is not None else None
     if domain is not None and not domain.bounded:
         domain = None  # --domain free: the free-boundary path
+    if domain is not None and domain.closed and args.texture is not None:
+        raise InputError(_NO_TEXTURE)
     require_gmsh()  # a missing gmsh fails here, before any training
     if args.map is not None:
         result = load_free_map(args, points, "surface reconstruction", domain=domain,
-                               hint=" or --domain with the map's domain")
+                               hint=" or --domain with the map's domain", closed_ok=True)
+        if result.domain is not None and result.domain.closed:
+            domain = result.domain  # a map onto the sphere says so itself
+            if args.texture is not None:
+                raise InputError(_NO_TEXTURE)
     else:
         result = parametrize(points, domain if domain is not None else "free",
                              config=config, progress=not args.quiet)
     # A denoised map was made of the fitted points: the mesh is lifted over them.
     lifted = result.fitted if result.fitted is not None else points
+    if domain is not None and domain.closed:
+        return _on_sphere(args, lifted, result, out)
     if domain is not None:
         return _on_domain(args, lifted, result, domain, out)
 
@@ -166,6 +190,35 @@ def _on_domain(args, points, result, domain, out) -> int:
     summary = _summary(args, points, result, out, report)
     return _print(args, points, report, summary,
                   f"{report['n_domain_loops']} in the domain {domain.label}")
+
+
+_NO_TEXTURE = ("--texture: a mesh of the sphere has no planar texture coordinates (the sphere "
+               "has no seamless ones); drop --texture")
+
+
+def _on_sphere(args, points, result, out) -> int:
+    """The mesh of the sphere, lifted through the map's spherical triangulation; closed."""
+    V, F, report = reconstruct_on_sphere(points, result.uv, faces=result.mesh_faces,
+                                         size=args.size, target_vertices=args.target_vertices,
+                                         lambda_inv=result.lambda_inv,
+                                         interpolation=args.interpolation)
+    write_mesh(out, V, F)
+    summary = _summary(args, points, result, out, report)
+    if args.json:
+        print(json.dumps(summary))
+        return EXIT_OK
+    print(f"{args.input}: {len(points)} points -> {report['n_vertices']} vertices, "
+          f"{report['n_faces']} triangles -> {summary['out']}")
+    print(f"  closed: watertight {report['watertight']}, winding-consistent "
+          f"{report['winding_consistent']}, Euler characteristic "
+          f"{report['euler_characteristic']} (genus {report['genus']:g}); lifted over the "
+          f"{report['triangulation']} of the sphere map, {report['interpolation']}")
+    print(f"  vertex-to-cloud distance / diagonal: max {report['hausdorff_rel']:.4f}, "
+          f"mean {report['mean_distance_rel']:.4f}")
+    print(f"  triangles: min angle {report['min_angle_deg']:.1f} deg, "
+          f"max aspect ratio {report['max_aspect_ratio']:.2f}")
+    print_noise(summary["denoise"])
+    return EXIT_OK
 
 
 def _print(args, points, report: dict, summary: dict, loops: str) -> int:
