@@ -44,10 +44,12 @@ examples:
       maps the cloud onto the disk first (preset fast), then meshes the disk itself and lifts
       it (one boundary loop, the circle's); with --map, a map that 'pcgeom param scan.ply
       --domain disk' wrote
-  pcgeom reconstruct statue.ply --domain sphere --target-vertices 20000 --out statue_mesh.ply
+  pcgeom reconstruct statue.ply --domain sphere --target-vertices 3000 --out statue_mesh.ply
       a closed genus-0 cloud: maps it onto the sphere (preset fast), meshes the sphere and
-      lifts it; the mesh is closed (watertight, consistently oriented, genus 0). With --map,
-      a map that 'pcgeom param statue.ply --domain sphere' wrote (--domain may be left out)
+      lifts it; the mesh is closed (watertight, consistently oriented, genus 0)
+  pcgeom reconstruct statue.ply --map statue_uv.npz --size adaptive --out statue_mesh.ply
+      reuses a map that 'pcgeom param statue.ply --domain sphere' wrote (the file says it is
+      onto the sphere; --domain sphere may be given too)
   pcgeom reconstruct noisy_scan.ply --denoise auto --out mesh.ply
       fits the surface first when the scan is noisy (as by default): the mesh is lifted over
       the fitted points, not the noisy ones
