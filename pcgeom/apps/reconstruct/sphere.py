@@ -233,19 +233,17 @@ in the normals' tilt), so the lift's error falls from O(h^2) to O(h^3) in the sp
 
 
 def vertex_normals(X, T) -> np.ndarray:
-    """Angle-weighted unit normals of the mesh ``(X, T)`` at its vertices (zero at a point in
-    no triangle), oriented as the triangles are. (N, 3) float64"""
-    X, T = np.asarray(X, dtype=np.float64), np.asarray(T, dtype=np.int64)
-    e = [X[T[:, (k + 1) % 3]] - X[T[:, k]] for k in range(3)]  # side k: corner k to k + 1
-    n = np.cross(e[0], -e[2])  # (M, 3), twice the area
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), np.finfo(float).tiny)
-    out = np.zeros_like(X)
-    for k in range(3):  # the angle at corner k, between side k and the reversed side k - 1
-        a, b = e[k], -e[k - 1]
-        angle = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.sum(a * b, axis=1))
-        np.add.at(out, T[:, k], angle[:, None] * n)
-    length = np.linalg.norm(out, axis=1, keepdims=True)
-    return np.where(length > 0, out / np.where(length > 0, length, 1.0), 0.0)
+    """Unit normals of the mesh ``(X, T)`` at its vertices, libigl's with each triangle
+    weighted by its angle there (as :func:`pcgeom.maps.localmesh.mesh_normals`), oriented as
+    the triangles are; zero at a point in no triangle. (N, 3) float64"""
+    import igl
+
+    found = igl.per_vertex_normals(np.ascontiguousarray(X, dtype=np.float64),
+                                   np.ascontiguousarray(T, dtype=np.int64),
+                                   igl.PER_VERTEX_NORMALS_WEIGHTING_TYPE_ANGLE)
+    length = np.linalg.norm(found, axis=1, keepdims=True)
+    ok = np.isfinite(length) & (length > 0.5)
+    return np.where(ok, found / np.where(ok, length, 1.0), 0.0)
 
 
 def lift_sphere(X, U, T, Q, *, interpolation: str = "phong",
