@@ -5,13 +5,19 @@ against a naive search, the adaptive size, and the one-line errors."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
-from pcgeom import InputError
+from pcgeom import InputError, ParamResult, cli, get_domain, get_preset
 from pcgeom.apps.reconstruct import (closed_checks, lift_sphere, reconstruct_on_sphere,
                                      sphere_compression, sphere_triangulation)
 from pcgeom.apps.reconstruct.sphere import vertex_normals
+from pcgeom.cloud import fingerprint
+from pcgeom.io import read_points, write_ply_atomic
+
+from tests.helpers import assert_cli_fails
 from pcgeom.apps.reconstruct import sphere as sphere_module
 
 gmsh = pytest.importorskip("gmsh")
@@ -188,3 +194,80 @@ def test_map_faces_with_a_hole_fall_back_to_the_convex_hull():
                                   np.sort(np.sort(hull, axis=1), axis=0))
     with pytest.raises(InputError, match=r"\(mesh_faces\) overlaps: 0 of 1001 .* 4\.0\d+ pi"):
         sphere_triangulation(U, np.vstack([hull, hull[:5]]))  # five triangles twice
+
+
+# --------------------------------------------------------------------------- command line
+
+
+@pytest.fixture
+def ellipsoid_files(tmp_path):
+    """The ellipsoid's cloud (PLY, bare) and map files onto the sphere (its radial
+    projection, with and without the hull as the map's own mesh) and onto the free plane."""
+    X, U = _ellipsoid(600)
+    write_ply_atomic(src := tmp_path / "ellipsoid.ply", X, None)
+    X = read_points(src).points
+    U = X / np.linalg.norm(X, axis=1, keepdims=True)
+    common = dict(lambda_inv=np.ones(len(X)), center=np.zeros(3), scale=1.0,
+                  config=get_preset("fast"), seed=0, fingerprint=fingerprint(X))
+    hull, _ = sphere_triangulation(U)
+    maps = {
+        "sphere": ParamResult(uv=U, domain=get_domain("sphere"), mesh_faces=hull, **common),
+        "free": ParamResult(uv=X[:, :2], domain=get_domain("free"), **common),
+        "disk": ParamResult(uv=0.3 * X[:, :2], domain=get_domain("disk"), **common),
+    }
+    folded = U.copy()
+    a, b = hull[0, 0], hull[0, 1]
+    folded[[a, b]] = folded[[b, a]]
+    maps["folded"] = ParamResult(uv=folded, domain=get_domain("sphere"), mesh_faces=hull,
+                                 **common)
+    return X, src, {k: m.save(tmp_path / f"{k}_uv.npz") for k, m in maps.items()}
+
+
+@pytest.mark.parametrize("domain", [[], ["--domain", "sphere"]])
+def test_cli_meshes_the_sphere_of_a_sphere_map_into_a_closed_mesh(tmp_path, capsys,
+                                                                    ellipsoid_files, domain):
+    X, src, maps = ellipsoid_files
+    out = tmp_path / "mesh.ply"
+    code = cli.main(["reconstruct", str(src), "--map", str(maps["sphere"]), *domain,
+                     "--size", "adaptive", "--target-vertices", "800", "--out", str(out),
+                     "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    summary = json.loads(captured.out)
+    assert summary["domain"] == "sphere" and summary["triangulation"] == "mesh_faces"
+    assert summary["watertight"] and summary["winding_consistent"]
+    assert summary["euler_characteristic"] == 2 and summary["interpolation"] == "phong"
+    mesh = read_points(out)
+    assert len(mesh.points) == summary["n_vertices"] and 700 <= len(mesh.points) <= 900
+    diag = np.linalg.norm(np.ptp(X, axis=0))
+    assert _distance(mesh.points).max() / diag < 0.002  # measured 0.0006
+    import trimesh
+
+    closed = trimesh.Trimesh(mesh.points, mesh.faces, process=False)
+    assert closed.is_watertight and closed.volume > 0
+
+
+def test_cli_prints_the_closed_checks(tmp_path, capsys, ellipsoid_files):
+    _, src, maps = ellipsoid_files
+    code = cli.main(["reconstruct", str(src), "--map", str(maps["sphere"]), "--interpolation",
+                     "linear", "--target-vertices", "400", "--out", str(tmp_path / "m.obj")])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert ("closed: watertight True, winding-consistent True, Euler characteristic 2 "
+            "(genus 0); lifted over the mesh_faces of the sphere map, linear") in out
+
+
+@pytest.mark.parametrize("map_name, extra, message", [
+    ("free", ["--domain", "sphere"], "is a free-boundary map, not a map onto 'sphere'"),
+    ("disk", ["--domain", "sphere"], "was trained onto the domain 'disk', not 'sphere'"),
+    ("sphere", ["--domain", "disk"], "was trained onto the domain 'sphere', not 'disk'"),
+    ("folded", [], "triangulation (mesh_faces) overlaps: 2 of 1196 triangles turned over"),
+    ("sphere", ["--texture", "checker:8"], "a mesh of the sphere has no planar texture"),
+])
+def test_cli_sphere_errors_are_one_line_and_write_nothing(tmp_path, capsys, ellipsoid_files,
+                                                          map_name, extra, message):
+    _, src, maps = ellipsoid_files
+    out = tmp_path / "mesh.obj"
+    assert_cli_fails(capsys, ["reconstruct", str(src), "--map", str(maps[map_name]), *extra,
+                              "--out", str(out)], message)
+    assert not out.exists()
