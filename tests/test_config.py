@@ -14,13 +14,17 @@ import pytest
 
 from pcgeom.config import (
     PRESETS,
+    BarrierConfig,
+    InjectiveConfig,
     LocalMeshConfig,
     LossWeights,
     NetConfig,
     OptimizerConfig,
     ParamConfig,
+    PullConfig,
     RefineConfig,
     ScheduleConfig,
+    UntangleConfig,
     config_from_dict,
     get_preset,
     preset_name,
@@ -164,6 +168,73 @@ def test_configs_are_frozen(obj, attr):
          "LocalMeshConfig.normal_round_flips: expected a number in [0, 1), got 1.0"),
         (lambda: LocalMeshConfig(normal_round_flips=False),
          "LocalMeshConfig.normal_round_flips: expected a number in [0, 1), got False"),
+        # the barrier map's settings
+        (lambda: UntangleConfig(theta=0.0),
+         "UntangleConfig.theta: expected a positive finite number, got 0.0"),
+        (lambda: UntangleConfig(method="bfgs"),
+         "UntangleConfig.method: unknown value 'bfgs'; choose one of: newton, lbfgs"),
+        (lambda: UntangleConfig(newton_steps=0),
+         "UntangleConfig.newton_steps: expected an int >= 1, got 0"),
+        (lambda: UntangleConfig(inner=2.5), "UntangleConfig.inner: expected an int, got float"),
+        (lambda: UntangleConfig(rounds=0), "UntangleConfig.rounds: expected an int >= 1, got 0"),
+        (lambda: UntangleConfig(decrease=1.0),
+         "UntangleConfig.decrease: expected a number in (0, 1), got 1.0"),
+        (lambda: UntangleConfig(tolerance=-1e-6),
+         "UntangleConfig.tolerance: expected a positive finite number, got -1e-06"),
+        (lambda: UntangleConfig(stop_when_unfolded=1),
+         "UntangleConfig.stop_when_unfolded: expected True or False, got 1"),
+        (lambda: UntangleConfig(local=-1), "UntangleConfig.local: expected an int >= 0, got -1"),
+        (lambda: PullConfig(weight=float("nan")),
+         "PullConfig.weight: expected a positive finite number, got nan"),
+        (lambda: PullConfig(growth=0.5), "PullConfig.growth: expected a number >= 1, got 0.5"),
+        (lambda: PullConfig(stages=0), "PullConfig.stages: expected an int >= 1, got 0"),
+        (lambda: PullConfig(iterations=0), "PullConfig.iterations: expected an int >= 1, got 0"),
+        (lambda: PullConfig(tolerance=0), "PullConfig.tolerance: expected a positive finite "
+                                          "number, got 0"),
+        (lambda: BarrierConfig(energy="arap"),
+         "BarrierConfig.energy: unknown value 'arap'; choose one of: mips, root_mips, "
+         "symmetric_dirichlet"),
+        (lambda: BarrierConfig(power=0), "BarrierConfig.power: expected a positive finite "
+                                         "number, got 0"),
+        (lambda: BarrierConfig(method="adam"),
+         "BarrierConfig.method: unknown value 'adam'; choose one of: newton, lbfgs"),
+        (lambda: BarrierConfig(iterations=-1),
+         "BarrierConfig.iterations: expected an int >= 0, got -1"),
+        (lambda: BarrierConfig(patience=0), "BarrierConfig.patience: expected an int >= 1, got 0"),
+        (lambda: BarrierConfig(memory=0), "BarrierConfig.memory: expected an int >= 1, got 0"),
+        (lambda: BarrierConfig(refactor=0), "BarrierConfig.refactor: expected an int >= 1, got 0"),
+        (lambda: BarrierConfig(landmark_rounds=0),
+         "BarrierConfig.landmark_rounds: expected an int >= 1, got 0"),
+        (lambda: BarrierConfig(max_fraction=1.5),
+         "BarrierConfig.max_fraction: expected a number in (0, 1], got 1.5"),
+        (lambda: BarrierConfig(slide="yes"), "BarrierConfig.slide: expected True or False, "
+                                             "got 'yes'"),
+        (lambda: BarrierConfig(blend=-0.1),
+         "BarrierConfig.blend: expected a non-negative finite number, got -0.1"),
+        (lambda: BarrierConfig(tolerance=-1.0),
+         "BarrierConfig.tolerance: expected a non-negative finite number, got -1.0"),
+        (lambda: BarrierConfig(cover=-1.0),
+         "BarrierConfig.cover: expected a non-negative finite number, got -1.0"),
+        (lambda: BarrierConfig(landmarks=float("inf")),
+         "BarrierConfig.landmarks: expected a non-negative finite number, got inf"),
+        (lambda: BarrierConfig(flip_guard=-0.01),
+         "BarrierConfig.flip_guard: expected a non-negative finite number, got -0.01"),
+        (lambda: InjectiveConfig(start="tutte"),
+         "InjectiveConfig.start: unknown value 'tutte'; choose one of: auto, untangle, pull"),
+        (lambda: InjectiveConfig(rim_angle=0),
+         "InjectiveConfig.rim_angle: expected a positive finite number, got 0"),
+        (lambda: InjectiveConfig(corner_angle=200.0),
+         "InjectiveConfig.corner_angle: expected degrees in (0, 180], got 200.0"),
+        (lambda: InjectiveConfig(scaffold=0.0),
+         "InjectiveConfig.scaffold: expected a positive finite number, got 0.0"),
+        (lambda: InjectiveConfig(barrier={"energy": "mips"}),
+         "InjectiveConfig.barrier: expected a BarrierConfig, got dict"),
+        (lambda: InjectiveConfig(untangle=PullConfig()),
+         "InjectiveConfig.untangle: expected a UntangleConfig, got PullConfig"),
+        (lambda: InjectiveConfig(pull=None),
+         "InjectiveConfig.pull: expected a PullConfig, got NoneType"),
+        (lambda: ParamConfig(injective=BarrierConfig()),
+         "ParamConfig.injective: expected a InjectiveConfig, got BarrierConfig"),
         # nested configs must be configs
         (lambda: ParamConfig(schedule={"epochs": 3}),
          "ParamConfig.schedule: expected a ScheduleConfig, got dict"),
@@ -213,9 +284,30 @@ def test_config_from_dict_missing_keys_take_the_defaults():
     assert cfg.schedule.sigma == ScheduleConfig().sigma  # the nested default too
 
 
+def test_barrier_settings_ride_in_param_config_and_old_dicts_take_the_defaults():
+    """The barrier map's settings are set through ParamConfig and saved with it; a dict
+    written before they were (a result file of an older pcgeom) loads with the defaults."""
+    cfg = get_preset("fast", injective=InjectiveConfig(barrier=BarrierConfig(energy="mips")))
+    back = ParamConfig.from_dict(json.loads(json.dumps(cfg.to_dict())))
+    assert back.injective.barrier.energy == "mips" and back == cfg
+    assert back.injective_landmarks.barrier.landmarks == 1e4  # the landmarks map's own
+    old = get_preset("fast").to_dict()
+    del old["injective"], old["injective_landmarks"]
+    loaded = ParamConfig.from_dict(old)
+    assert loaded == get_preset("fast")
+    assert loaded.injective == InjectiveConfig()
+    assert loaded.injective_landmarks == InjectiveConfig(
+        untangle=UntangleConfig(local=3), barrier=BarrierConfig(landmarks=1e4, cover=0.0))
+    part = ParamConfig.from_dict({"injective": {"barrier": {"iterations": 10}}})
+    assert part.injective.barrier.iterations == 10
+    assert part.injective.barrier.energy == "root_mips" and part.injective.start == "auto"
+    with pytest.raises(InputError, match=r"^BarrierConfig\.energy: unknown value 'x'"):
+        ParamConfig.from_dict({"injective": {"barrier": {"energy": "x"}}})
+
+
 def test_config_from_dict_rejects_unknown_keys_listing_the_known_fields():
-    known = ("denoise, disk_map, domain_map, domain_samples, dtype, free_map, init_map, lambda_net, "
-             "local_mesh, "
+    known = ("denoise, disk_map, domain_map, domain_samples, dtype, free_map, init_map, injective, "
+             "injective_landmarks, lambda_net, local_mesh, "
              "max_stages, optimizer, param_net, refine, schedule, weights")
     with pytest.raises(InputError) as info:
         ParamConfig.from_dict({"max_stage": 2, "seed": 0})

@@ -159,6 +159,21 @@ def test_old_format_loads_with_a_warning(tmp_path):
     assert (old.fingerprint, old.faces, old.seconds) == (None, None, 0.0)
 
 
+def test_a_file_from_before_the_barrier_settings_loads_with_their_defaults(tmp_path):
+    """Result files written before ParamConfig held the barrier map's settings (``injective``,
+    ``injective_landmarks``) load, those settings at their defaults."""
+    res = _result()
+    res.save(tmp_path / "map.npz")
+    arrays = dict(np.load(tmp_path / "map.npz", allow_pickle=False))
+    config = json.loads(str(arrays["config_json"]))
+    del config["injective"], config["injective_landmarks"]
+    arrays["config_json"] = np.str_(json.dumps(config))
+    np.savez(tmp_path / "before.npz", **arrays)
+    old = ParamResult.load(tmp_path / "before.npz")
+    assert old.config == res.config
+    assert old.config.injective.barrier.energy == "root_mips"
+
+
 def test_bare_uv_file_loads_with_a_warning_and_cannot_be_saved_back(tmp_path):
     """A map from another tool (only ``uv``) loads for evaluation; everything else is unknown."""
     uv = np.random.default_rng(4).normal(size=(N, 2))

@@ -549,7 +549,7 @@ def _draw_surface(ax, Y: np.ndarray, F: np.ndarray, rgb: np.ndarray) -> None:
     ax.set_axis_off()
 
 
-def plot_checker(V, F, uv, path, squares: int | None = None, values=None,
+def plot_checker(V, F, uv, path, *, squares: int | None = None, values=None,
                  value_label: str = "angle distortion (rad)", title: str | None = None) -> Path:
     """The surface ``(V, F)`` with a checkerboard in its texture coordinates ``uv``: each
     triangle coloured by the checker parity under its centroid

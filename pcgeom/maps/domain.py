@@ -46,7 +46,8 @@ import numpy as np
 
 import torch
 
-from ..config import ParamConfig
+from ..config import InjectiveConfig, ParamConfig
+from ..config.barrier import LANDMARKS_INJECTIVE
 from ..domains import Disk, Domain
 from ..errors import InputError
 from ..losses import landmark_hand
@@ -57,7 +58,7 @@ from ..train.objective import Objective
 from ._sparse import spd_factor
 from .disk import conformal_disk
 from .free import conformal_factor, free_start
-from .injective import BarrierConfig, InjectiveConfig, UntangleConfig, injective_map
+from .injective import injective_map
 from .localmesh import LocalMesh, _interpolate_rest, _submesh, mesh_flips
 from .refine import refine
 from .riemann import ROTATIONS, riemann_onto, simply_connected
@@ -424,11 +425,12 @@ def injective_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: 
         # A domain hole with no hole of the cloud: an injective map would cover it; only
         # tearing the surface open (the refinement's HAND) leaves it empty.
         return _on_all_rows(X, main, D), info
-    U, more = _injective(X, mesh, (main, V, F, D), pairs, domain, landmarks, config)
+    U, more = _injective(X, mesh, (main, V, F, D), pairs, domain=domain, landmarks=landmarks,
+                         config=config)
     return U, {**info, **more}
 
 
-def _injective(X: np.ndarray, mesh: LocalMesh, start: tuple, pairs: list, domain: Domain,
+def _injective(X: np.ndarray, mesh: LocalMesh, start: tuple, pairs: list, *, domain: Domain,
                landmarks, config: InjectiveConfig) -> tuple[np.ndarray, dict]:
     """:func:`pcgeom.maps.injective.injective_map` from ``start = (main, V, F, D)`` (the
     cleaned main part and its first map) with the paired ``(loop, ring)``: the map of every
@@ -450,25 +452,13 @@ def _injective(X: np.ndarray, mesh: LocalMesh, start: tuple, pairs: list, domain
                                                                 len(X))}
 
 
-LANDMARKS_CONFIG = InjectiveConfig(untangle=UntangleConfig(local=3),
-                                   barrier=BarrierConfig(landmarks=1e4, cover=0.0))
-""":func:`landmarks_onto`'s: the conformal start folds a few triangles, mended where they are;
-the landmark term weighs 1e4, and the uncovered-area term is off. Measured on the car shell
-with its window edges (2500 points; angle and flips on the true triangles, then the window
-edges' Hausdorff distance to their targets, the surface's to the domain): the conformal
-start 0.028 rad, 4 flips, 0.129, 0.038; landmarks 1e3: 0.077 rad, 19 flips, 0.040, 0.195;
-1e4 without the cover term: 0.045 rad, 6 flips, 0.023, 0.085 (with it, 1: 0.050, 8, 0.024,
-0.153: the rim slides away from the arches); the landmarks paired along the target lines by
-arc length, 1e4: 0.0455 rad, 5 flips (the disk map of the same cloud: 5), 0.011, 0.096."""
-
-
 def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: Domain,
-                   landmarks, *, config: InjectiveConfig = LANDMARKS_CONFIG
+                   landmarks, *, config: InjectiveConfig = LANDMARKS_INJECTIVE
                    ) -> tuple[np.ndarray, dict]:
     """Map the local mesh onto a simply connected domain with landmarks, folding nothing:
     the conformal map of :func:`pcgeom.maps.riemann.riemann_onto` (turned and mirrored as
     the landmarks fit best), then :func:`pcgeom.maps.injective.injective_map` with the
-    landmark term (:attr:`pcgeom.maps.injective.BarrierConfig.landmarks`), the rim sliding
+    landmark term (:attr:`pcgeom.config.BarrierConfig.landmarks`), the rim sliding
     on the domain's ring, under the barrier that keeps every triangle positive.
 
     ``disk_uv`` is the conformal disk map (:func:`pcgeom.maps.disk.conformal_disk`);
@@ -482,7 +472,8 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
         raise InputError("the local mesh has no boundary loop; a map onto a domain needs one")
     outer = loops[0] if shoelace(D[loops[0]]) > 0 else loops[0][::-1]
     ring = np.asarray(domain.boundary_loops()[0], dtype=np.float64)
-    U, more = _injective(X, mesh, (main, V, F, D), [(outer, ring)], domain, landmarks, config)
+    U, more = _injective(X, mesh, (main, V, F, D), [(outer, ring)], domain=domain,
+                         landmarks=landmarks, config=config)
     return U, {**info, **more}
 
 
@@ -605,13 +596,15 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
         refine_config = dataclasses.replace(refine_config, steps=0)
     elif config.local_mesh.domain_method == "injective" and simply_connected(domain):
         # The conformal map, pulled onto the landmarks under a barrier: nothing folds.
-        U0, info = landmarks_onto(Xn, mesh, conformal_disk(Xn, mesh, uv), domain, marks)
+        U0, info = landmarks_onto(Xn, mesh, conformal_disk(Xn, mesh, uv), domain, marks,
+                                  config=config.injective_landmarks)
         method = "riemann+landmarks"
         refine_config = dataclasses.replace(refine_config, steps=0)
     elif config.local_mesh.domain_method == "injective":
         # The surface's holes slide onto the domain's under a barrier: no triangle turns
         # over, and the refinement, which could fold it, does not run.
-        U0, info = injective_onto(Xn, mesh, uv, domain, landmarks=marks)
+        U0, info = injective_onto(Xn, mesh, uv, domain, landmarks=marks,
+                                  config=config.injective)
         if "injective" in info:
             method = "injective"
             refine_config = dataclasses.replace(refine_config, steps=0)

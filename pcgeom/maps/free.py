@@ -309,7 +309,8 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     record["normal_rounds"] = 0
     if record["normals"] == "estimated" and settings.normal_rounds > 0:
         uv, mesh, normals, robust = _normal_rounds(Xn, (uv, mesh, normals, robust), solve,
-                                                   settings, outlier, record, progress)
+                                                   settings, outlier=outlier, record=record,
+                                                   progress=progress)
     record["robust_rounds"] = settings.robust_rounds
     # Triangles the robust round weighted below 1/2 (None without a round).
     record["robust_downweighted"] = robust.get("downweighted")
@@ -324,7 +325,7 @@ NORMAL_ROUND_PATIENCE = 1
 map so far before the rounds stop (:attr:`pcgeom.config.LocalMeshConfig.normal_rounds`)."""
 
 
-def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, outlier: np.ndarray,
+def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, *, outlier: np.ndarray,
                    record: dict, progress: bool) -> tuple:
     """Step 4's normal rounds: the local mesh rebuilt from its own vertex normals, and mapped
     again, while its map turns over more than ``settings.normal_round_flips`` of its

@@ -15,7 +15,10 @@ import math
 import typing
 from dataclasses import dataclass
 
-from .errors import InputError
+from ..errors import InputError
+from ._checks import _choice, _count, _positive
+from .barrier import (ENERGIES, LANDMARKS_INJECTIVE, SOLVERS, STARTS, BarrierConfig,
+                      InjectiveConfig, PullConfig, UntangleConfig)
 
 __all__ = [
     "NetConfig",
@@ -25,6 +28,13 @@ __all__ = [
     "RefineConfig",
     "LocalMeshConfig",
     "DenoiseConfig",
+    "InjectiveConfig",
+    "UntangleConfig",
+    "PullConfig",
+    "BarrierConfig",
+    "ENERGIES",
+    "STARTS",
+    "SOLVERS",
     "ParamConfig",
     "PRESETS",
     "get_preset",
@@ -42,30 +52,6 @@ FREE_MAPS = ("networks", "localmesh")
 DISK_MAPS = ("networks", "localmesh")
 DOMAIN_MAPS = ("networks", "localmesh")
 NET_INITS = ("siren", "default")
-
-
-# --------------------------------------------------------------------------- validation helpers
-
-
-def _choice(owner: str, field: str, value, choices: tuple[str, ...]) -> None:
-    if value not in choices:
-        raise InputError(f"{owner}.{field}: unknown value {value!r}; choose one of: "
-                         f"{', '.join(choices)}")
-
-
-def _positive(owner: str, field: str, value, *, allow_zero: bool = False) -> None:
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if not ok or value < 0 or (value == 0 and not allow_zero):
-        want = "a non-negative" if allow_zero else "a positive"
-        raise InputError(f"{owner}.{field}: expected {want} finite number, got {value!r}")
-
-
-def _count(owner: str, field: str, value, *, allow_zero: bool = False) -> None:
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise InputError(f"{owner}.{field}: expected an int, got {type(value).__name__}")
-    if value < 0 or (value == 0 and not allow_zero):
-        want = ">= 0" if allow_zero else ">= 1"
-        raise InputError(f"{owner}.{field}: expected an int {want}, got {value}")
 
 
 # --------------------------------------------------------------------------- configs
@@ -486,6 +472,13 @@ class ParamConfig:
     """Settings of the ``"localmesh"`` maps."""
     denoise: DenoiseConfig = DenoiseConfig()
     """Fit the surface before the map (off: the paper maps the points as they are)."""
+    injective: InjectiveConfig = InjectiveConfig()
+    """The barrier map of ``domain_map = "localmesh"`` onto a domain with holes
+    (:func:`pcgeom.maps.domain.injective_onto`)."""
+    injective_landmarks: InjectiveConfig = LANDMARKS_INJECTIVE
+    """The barrier map of ``domain_map = "localmesh"`` with landmarks onto a domain without
+    holes (:func:`pcgeom.maps.domain.landmarks_onto`);
+    :data:`pcgeom.config.barrier.LANDMARKS_INJECTIVE` by default."""
 
     def __post_init__(self) -> None:
         _count("ParamConfig", "domain_samples", self.domain_samples)
