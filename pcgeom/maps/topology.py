@@ -501,7 +501,7 @@ def _has_long_loop(X: np.ndarray, faces: np.ndarray, h: np.ndarray, radius: floa
 
 
 def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
-               bound: float, exclude: np.ndarray | None, folds: bool = False,
+               bound: float, exclude: np.ndarray | None, *, folds: bool = False,
                grow: float = 1.0) -> tuple[np.ndarray, int, np.ndarray, int]:
     """One pass of step 1's fills over the loops of ``faces``: the faces with the fills, how
     many, and the points of the loops that the sampling can leave (no longer than a circle
