@@ -313,62 +313,52 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
     out_dir = Path(out_dir)
     out_dir.mkdir(exist_ok=True)
     prefix = f"{title}: " if title else ""
-    if evaluation.uv.shape[1] == 3:
-        return _plot_sphere_evaluation(evaluation, out_dir, prefix)
+    n = len(evaluation.uv)
+    per_vertex = vertex_angle_distortion(evaluation.faces, evaluation.angles.per_corner, n)
     written = {
         "angles": plot_angle_histogram(
             evaluation.angles.per_corner, out_dir / PLOT_FILES["angles"],
             title=f"{prefix}angle distortion", others=_baseline_histograms(evaluation)),
-        "map": plot_map(
-            evaluation.uv, out_dir / PLOT_FILES["map"],
-            values=vertex_angle_distortion(evaluation.faces, evaluation.angles.per_corner,
-                                           len(evaluation.uv)),
-            domain=evaluation.domain,
-            title=f"{prefix}angle distortion per vertex (rad)"),
+        "map": None,
         "checker": None,
         "history": None,
     }
-    if evaluation.points is not None:
-        written["checker"] = plot_checker(
-            evaluation.points, evaluation.faces, uv_scaling(evaluation.uv).apply(evaluation.uv),
-            out_dir / PLOT_FILES["checker"], squares=squares,
-            values=evaluation.angles.per_corner.mean(axis=1),
-            value_label="angle distortion per triangle (rad)", title=title)
+    if evaluation.uv.shape[1] == 3:
+        _plot_sphere_evaluation(evaluation, out_dir, prefix, per_vertex, written)
+    else:
+        written["map"] = plot_map(evaluation.uv, out_dir / PLOT_FILES["map"], values=per_vertex,
+                                  domain=evaluation.domain,
+                                  title=f"{prefix}angle distortion per vertex (rad)")
+        if evaluation.points is not None:
+            written["checker"] = plot_checker(
+                evaluation.points, evaluation.faces,
+                uv_scaling(evaluation.uv).apply(evaluation.uv),
+                out_dir / PLOT_FILES["checker"], squares=squares,
+                values=evaluation.angles.per_corner.mean(axis=1),
+                value_label="angle distortion per triangle (rad)", title=title)
     if evaluation.history:
         written["history"] = plot_history(evaluation.history, out_dir / PLOT_FILES["history"],
                                           title=f"{prefix}loss per stage")
     return written
 
 
-def _plot_sphere_evaluation(evaluation: Evaluation, out_dir: Path, prefix: str) -> dict:
-    """:func:`plot_evaluation` of a sphere map: the histograms, the sphere coloured by
-    angle distortion (``map``) and by the conformal factor (``sphere_factor``), each with
-    its equirectangular picture, and the history."""
-    from .plot import plot_angle_histogram, plot_history, plot_sphere
+def _plot_sphere_evaluation(evaluation: Evaluation, out_dir: Path, prefix: str,
+                            per_vertex: np.ndarray, written: dict) -> None:
+    """:func:`plot_evaluation`'s figures of a sphere map, into ``written``: the sphere
+    coloured by angle distortion (``map``) and by the conformal factor (``sphere_factor``),
+    each with its equirectangular picture."""
+    from .plot import plot_sphere
 
-    n = len(evaluation.uv)
-    written = {
-        "angles": plot_angle_histogram(
-            evaluation.angles.per_corner, out_dir / PLOT_FILES["angles"],
-            title=f"{prefix}angle distortion", others=_baseline_histograms(evaluation)),
-        "map": plot_sphere(
-            evaluation.uv, out_dir / PLOT_FILES["map"],
-            values=vertex_angle_distortion(evaluation.faces, evaluation.angles.per_corner, n),
-            title=f"{prefix}angle distortion per vertex", value_label="radians"),
-        "checker": None,
-        "history": None,
-        "sphere_factor": None,
-    }
+    written["map"] = plot_sphere(evaluation.uv, out_dir / PLOT_FILES["map"], values=per_vertex,
+                                 title=f"{prefix}angle distortion per vertex",
+                                 value_label="radians")
+    written["sphere_factor"] = None
     if evaluation.points is not None:
         written["sphere_factor"] = plot_sphere(
             evaluation.uv, out_dir / PLOT_FILES["sphere_factor"],
             values=area_factor(evaluation.points, evaluation.faces, evaluation.uv),
             title=f"{prefix}conformal factor (mapped over surface area share, square root)",
             value_label="conformal factor", log=True)
-    if evaluation.history:
-        written["history"] = plot_history(evaluation.history, out_dir / PLOT_FILES["history"],
-                                          title=f"{prefix}loss per stage")
-    return written
 
 
 def plot_angle_histograms(evaluation: Evaluation, path, title: str | None = None) -> Path:

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, _one_line
 from ...mesh import shoelace, signed_areas
 from ..boundary import BoundaryLoops
 from ..planar import validate_map
@@ -51,6 +51,60 @@ def require_gmsh():
     return gmsh
 
 
+def _gmsh_triangles(build, size: float, relative=None, *, model: str, empty: str
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """One gmsh session: ``build(gmsh)`` adds the geometry to the model ``model`` (and
+    synchronizes it); it is meshed with element size ``size``, times ``relative(x, y, z)``
+    where that callable is given.
+
+    Returns the vertices (K, 3) that triangles use (gmsh keeps geometry-only nodes) and the
+    triangles (M, 3) int64 as gmsh made them; :class:`InputError` ``empty`` when it made none.
+    """
+    gmsh = require_gmsh()
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(model)
+        build(gmsh)
+        if relative is None:
+            gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+            gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        else:
+            gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+            gmsh.model.mesh.setSizeCallback(
+                lambda dim, tag, x, y, z, lc: size * float(relative(x, y, z)))
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        # The size inside must not be interpolated from the boundary segments' lengths (that
+        # would tie the vertex count to how many times each segment is split).
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.model.mesh.generate(2)
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        types, _, node_tags = gmsh.model.mesh.getElements(2)
+    finally:
+        gmsh.finalize()
+    if 2 not in list(types):
+        raise InputError(empty)
+    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+    index[tags.astype(np.int64)] = np.arange(len(tags))
+    T = index[np.asarray(node_tags[list(types).index(2)], dtype=np.int64).reshape(-1, 3)]
+    Q = np.asarray(coords, dtype=np.float64).reshape(-1, 3)
+    used = np.unique(T)
+    remap = np.full(len(Q), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return Q[used], remap[T]
+
+
+def gmsh_meshed(what: str, mesher, *args, keep: tuple = (InputError, ImportError)):
+    """``mesher(*args)``, an error of gmsh's (anything but ``keep``) turned into a one-line
+    :class:`InputError` ``"gmsh could not mesh {what}: ..."``."""
+    try:
+        return mesher(*args)
+    except keep:
+        raise
+    except Exception as exc:
+        raise InputError(f"gmsh could not mesh {what}: {_one_line(exc)}") from None
+
+
 def _gmsh_mesh(parts: list[list[np.ndarray]], size: float,
                relative=None) -> tuple[np.ndarray, np.ndarray]:
     """One gmsh session: the plane regions ``parts`` (each an outer ring and its holes)
@@ -59,11 +113,8 @@ def _gmsh_mesh(parts: list[list[np.ndarray]], size: float,
 
     Returns the 2D vertices (K, 2) and the triangles (M, 3) int64, counter-clockwise.
     """
-    gmsh = require_gmsh()
-    gmsh.initialize(readConfigFiles=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("pcgeom_region")
+
+    def build(gmsh) -> None:
         geo = gmsh.model.geo
         for polygons in parts:
             curve_loops = []
@@ -74,32 +125,11 @@ def _gmsh_mesh(parts: list[list[np.ndarray]], size: float,
                 curve_loops.append(geo.addCurveLoop(lines))
             geo.addPlaneSurface(curve_loops)  # the first loop bounds it, the others are holes
         geo.synchronize()
-        if relative is None:
-            gmsh.option.setNumber("Mesh.MeshSizeMin", size)
-            gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        else:
-            gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-            gmsh.model.mesh.setSizeCallback(
-                lambda dim, tag, x, y, z, lc: size * float(relative(x, y)))
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        # The size inside must not be interpolated from the loop segments' lengths (that
-        # would tie the vertex count to how many times each segment is split).
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-        gmsh.model.mesh.generate(2)
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        types, _, node_tags = gmsh.model.mesh.getElements(2)
-    finally:
-        gmsh.finalize()
-    if 2 not in list(types):
-        raise InputError("gmsh made no triangles; the reconstruction would be empty")
-    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
-    index[tags.astype(np.int64)] = np.arange(len(tags))
-    T = index[np.asarray(node_tags[list(types).index(2)], dtype=np.int64).reshape(-1, 3)]
-    Q = np.asarray(coords, dtype=np.float64).reshape(-1, 3)[:, :2]
-    used = np.unique(T)  # gmsh keeps geometry-only nodes; drop any that no triangle uses
-    remap = np.full(len(Q), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    Q, T = Q[used], remap[T]
+
+    Q, T = _gmsh_triangles(build, size, None if relative is None
+                           else (lambda x, y, z: relative(x, y)), model="pcgeom_region",
+                           empty="gmsh made no triangles; the reconstruction would be empty")
+    Q = Q[:, :2]
     flip = signed_areas(Q, T) < 0
     T[flip] = T[flip][:, [0, 2, 1]]
     return Q, T

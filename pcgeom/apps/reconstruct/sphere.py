@@ -34,7 +34,8 @@ import numpy as np
 
 from ...cloud import validate_points
 from ...errors import InputError, _one_line
-from .gmsh_mesh import _check_target_vertices, _first_size, _mesh_to_target, require_gmsh
+from .gmsh_mesh import (_check_target_vertices, _first_size, _gmsh_triangles, _mesh_to_target,
+                        gmsh_meshed)
 from .report import mesh_report
 
 __all__ = ["reconstruct_on_sphere", "sphere_triangulation", "lift_sphere", "mesh_sphere",
@@ -295,37 +296,13 @@ def _gmsh_sphere(size: float, relative=None) -> tuple[np.ndarray, np.ndarray]:
     """One gmsh session: the unit sphere (OpenCASCADE) meshed with element size ``size``,
     times ``relative(x, y, z)`` where given. Returns the vertices (K, 3), on the sphere,
     and the triangles (M, 3) int64, counter-clockwise from outside."""
-    gmsh = require_gmsh()
-    gmsh.initialize(readConfigFiles=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("pcgeom_sphere")
+
+    def build(gmsh) -> None:
         gmsh.model.occ.addSphere(0.0, 0.0, 0.0, 1.0)
         gmsh.model.occ.synchronize()
-        if relative is None:
-            gmsh.option.setNumber("Mesh.MeshSizeMin", size)
-            gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        else:
-            gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-            gmsh.model.mesh.setSizeCallback(
-                lambda dim, tag, x, y, z, lc: size * float(relative(x, y, z)))
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-        gmsh.model.mesh.generate(2)
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        types, _, node_tags = gmsh.model.mesh.getElements(2)
-    finally:
-        gmsh.finalize()
-    if 2 not in list(types):
-        raise InputError("gmsh made no triangles on the sphere")
-    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
-    index[tags.astype(np.int64)] = np.arange(len(tags))
-    T = index[np.asarray(node_tags[list(types).index(2)], dtype=np.int64).reshape(-1, 3)]
-    Q = np.asarray(coords, dtype=np.float64).reshape(-1, 3)
-    used = np.unique(T)  # the seam's and poles' geometry-only nodes
-    remap = np.full(len(Q), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    Q, T = Q[used], remap[T]
+
+    Q, T = _gmsh_triangles(build, size, relative, model="pcgeom_sphere",
+                           empty="gmsh made no triangles on the sphere")
     Q /= np.linalg.norm(Q, axis=1, keepdims=True)
     a, b, c = Q[T[:, 0]], Q[T[:, 1]], Q[T[:, 2]]
     inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), a + b + c) < 0
@@ -464,12 +441,7 @@ def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
         relative = lam**-0.5
         weights = np.bincount(T.ravel(), np.repeat(np.abs(_spherical_areas(U, T)) / 3, 3),
                               minlength=len(U))
-    try:
-        Q, F = mesh_sphere(target_vertices, U, relative, weights)
-    except Exception as exc:
-        if isinstance(exc, (InputError, ImportError)):
-            raise
-        raise InputError(f"gmsh could not mesh the sphere: {_one_line(exc)}") from None
+    Q, F = gmsh_meshed("the sphere", mesh_sphere, target_vertices, U, relative, weights)
     V, searched = lift_sphere(P, U, T, Q, interpolation=interpolation)
     a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
     reversed_ = bool(_det(a, b, c).sum() < 0)  # six times the signed volume

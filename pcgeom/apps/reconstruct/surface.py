@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...cloud import validate_points
-from ...errors import InputError, _one_line
+from ...errors import InputError
 from ..boundary import BoundaryLoops
 from ..planar import validate_map
-from .gmsh_mesh import mesh_domain, mesh_region
+from .gmsh_mesh import gmsh_meshed, mesh_domain, mesh_region
 from .lifting import lift, map_delaunay
 from .report import mesh_report
 
@@ -66,12 +66,7 @@ def reconstruct_surface(points, U, loops: BoundaryLoops, *, size: str = "uniform
     if not isinstance(loops, BoundaryLoops):
         raise TypeError(f"loops: expected BoundaryLoops (from detect_boundary), "
                         f"got {type(loops).__name__}")
-    try:
-        Q, F = mesh_region(U, loops, target_vertices, relative)
-    except Exception as exc:
-        if isinstance(exc, (InputError, ImportError)):
-            raise
-        raise InputError(f"gmsh could not mesh the region: {_one_line(exc)}") from None
+    Q, F = gmsh_meshed("the region", mesh_region, U, loops, target_vertices, relative)
     V, outside = lift(P, U, loops.triangles, Q)
     report = mesh_report(V, F, P)
     report.update(n_outside=int(outside.sum()), size=size, target_vertices=int(target_vertices))
@@ -143,12 +138,8 @@ def reconstruct_on_domain(points, U, domain, *, size: str = "uniform",
         gmsh is not installed.
     """
     P, U, relative = _checked_input(points, U, size, lambda_inv)
-    try:
-        Q, F = mesh_domain(domain, target_vertices, U, relative)
-    except Exception as exc:
-        if isinstance(exc, (InputError, ImportError, TypeError)):
-            raise
-        raise InputError(f"gmsh could not mesh the domain: {_one_line(exc)}") from None
+    Q, F = gmsh_meshed("the domain", mesh_domain, domain, target_vertices, U, relative,
+                       keep=(InputError, ImportError, TypeError))
     V, outside = lift(P, U, map_delaunay(U), Q)
     report = mesh_report(V, F, P)
     report.update(n_outside=int(outside.sum()), n_domain_loops=len(domain.boundary_loops()),
