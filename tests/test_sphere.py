@@ -64,7 +64,9 @@ def test_ellipsoid_cloud_maps_onto_the_sphere_without_flips(ellipsoid, ellipsoid
     assert got.mean_abs < 0.014
     assert got.mean_abs <= 1.1 * anchor.mean_abs
     record = ellipsoid_map.history[-1]
-    assert record["topology"]["genus"] == 0 and record["topology"]["closed"]
+    assert record["topology"]["genus"] == 0 and record["topology"]["closed"]  # the local mesh's
+    assert record["sphere_mesh"] == {"euler": 2, "boundary_loops": 0, "closed": True,
+                                     "genus": 0, "vertices": 2000}
     assert record["flips"]["count"] == 0 and record["onto"] == "sphere"
 
 
