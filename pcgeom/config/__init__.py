@@ -325,8 +325,12 @@ class LocalMeshConfig:
     ``"injective"``: onto a simply connected domain without landmarks, the conformal disk map
     composed with the domain's inverse Riemann map (:mod:`pcgeom.maps.riemann`), which does
     not fold, and no refinement (three peaks onto the square: 0.041 rad, 19 flips, the mapped
-    surface 0.038 from the square -> 0.012 rad, 2 flips, 0.006); other domains as
-    ``"harmonic"``. ``"harmonic"``: the harmonic layout with holes on holes
+    surface 0.038 from the square -> 0.012 rad, 2 flips, 0.006); with landmarks, that map
+    then the barrier map with the landmark term (:func:`pcgeom.maps.domain.landmarks_onto`,
+    :attr:`ParamConfig.injective_landmarks`); onto a domain with holes, the harmonic layout
+    made a bijection by the barrier map (:func:`pcgeom.maps.domain.injective_onto`,
+    :attr:`ParamConfig.injective`), no refinement, unless a domain hole gets no hole of the
+    cloud (then as ``"harmonic"``). ``"harmonic"``: the harmonic layout with holes on holes
     (:func:`pcgeom.maps.domain.harmonic_onto`), then :attr:`domain_refine`, which may fold."""
 
     def __post_init__(self) -> None:
@@ -465,9 +469,10 @@ class ParamConfig:
     (:func:`pcgeom.maps.disk.conformal_disk`)."""
     domain_map: str = "networks"
     """How a map onto any other bounded domain, or with landmarks, is made: ``"networks"``
-    (paper) or ``"localmesh"``, the local mesh laid on the domain with its holes on the
-    domain's holes (:func:`pcgeom.maps.domain.harmonic_onto`), then refined
-    (:attr:`LocalMeshConfig.domain_refine`)."""
+    (paper) or ``"localmesh"`` (:func:`pcgeom.maps.domain.domain_map`): onto a domain without
+    holes the disk map composed with the domain's inverse Riemann map, onto a domain with
+    holes or with landmarks the barrier map (:attr:`injective`, :attr:`injective_landmarks`),
+    as :attr:`LocalMeshConfig.domain_method` says."""
     local_mesh: LocalMeshConfig = LocalMeshConfig()
     """Settings of the ``"localmesh"`` maps."""
     denoise: DenoiseConfig = DenoiseConfig()
@@ -580,8 +585,8 @@ PRESETS: dict[str, ParamConfig] = {
     "paper": ParamConfig(),
     # Everyday use: the free boundary by the local-mesh map (LSCM on same-sheet tangent fans:
     # seconds, and it unfolds where a scan doubles back), the disk by the same made
-    # conformal onto it, other domains and landmarks by the same laid on the domain (its
-    # holes on the domain's holes) and refined.
+    # conformal onto it, domains without holes by that map composed with their inverse
+    # Riemann map, domains with holes and landmarks by the barrier map (maps.domain).
     # Noisy scans are fitted first (DenoiseConfig, "auto": clean ones are left as they are).
     "fast": dataclasses.replace(_FAST_NETWORKS, free_map="localmesh", disk_map="localmesh",
                                 domain_map="localmesh", denoise=DenoiseConfig(mode="auto")),

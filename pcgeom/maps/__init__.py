@@ -16,9 +16,13 @@ module                 what it makes
                        composed with the domain's inverse Riemann map
                        (:func:`riemann_onto`)
 :mod:`.domain`         the map onto any other bounded domain: :func:`domain_map` (the
-                       Riemann composition, or the local mesh laid on the domain,
-                       holes on holes, :func:`harmonic_onto`, :func:`align_onto`,
-                       then refined)
+                       Riemann composition; onto a domain with holes or with
+                       landmarks the barrier map, :func:`injective_onto`,
+                       :func:`landmarks_onto`; a disk with landmarks turned by
+                       :func:`align_onto` and refined; :func:`harmonic_onto`, the
+                       layout with holes on holes)
+:mod:`.injective`      the barrier map: a bijection of the local mesh onto a domain
+                       that never turns a triangle over (:func:`injective_map`)
 :mod:`.networks`       the paper's two sine networks trained stage by stage
                        (Algorithm 1)
 :mod:`.sphere`         the map of a closed genus-0 cloud onto the sphere (the closed

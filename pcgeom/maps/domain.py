@@ -534,12 +534,24 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
                domain: Domain, data: TrainData, objective: Objective, *,
                progress: bool, on_stage=None, start=None
                ) -> tuple[torch.Tensor, torch.Tensor, list[dict]]:
-    """The local mesh laid on a bounded domain, holes on holes, then refined.
+    """The local-mesh map onto a bounded domain (the run step of ``domain_map =
+    "localmesh"``), by ``config.local_mesh.domain_method``:
 
-    :func:`harmonic_onto` gives the first map, or for a disk the conformal disk map turned by
-    :func:`align_onto` (the landmarks, when any, help choose the alignment);
-    :func:`pcgeom.maps.refine.refine` with ``config.local_mesh.domain_refine`` then optimizes
-    it on LEG (local pairs), HAND onto the domain sample ``data.W`` and the landmark terms.
+    - a disk (with landmarks: a disk without them is :func:`pcgeom.maps.disk.disk_map`): the
+      conformal disk map turned and mirrored by :func:`align_onto` as the landmarks fit best,
+      then refined;
+    - ``"injective"`` (the default), a domain without holes and no landmarks:
+      :func:`pcgeom.maps.riemann.riemann_onto`, the disk map composed with the domain's
+      inverse Riemann map; with landmarks: :func:`landmarks_onto`, that map made to meet the
+      landmarks by the barrier map (``config.injective_landmarks``); a domain with holes:
+      :func:`injective_onto`, the harmonic layout made a bijection by the barrier map
+      (``config.injective``). None of them is refined, which could only fold them; where a
+      domain hole gets no hole of the cloud the harmonic layout is refined instead;
+    - ``"harmonic"``: :func:`harmonic_onto`, then refined.
+
+    The refinement is :func:`pcgeom.maps.refine.refine` with
+    ``config.local_mesh.domain_refine``: LEG (local pairs), HAND onto the domain sample
+    ``data.W`` and the landmark terms.
 
     Parameters
     ----------

@@ -52,8 +52,10 @@ MAPS = {
     "free": "the free LSCM map of the local mesh (pcgeom.maps.free), no training",
     "disk": "the conformal disk map: free map, then the Riemann map (pcgeom.maps.disk)",
     "domain": "onto a domain without holes, the disk map composed with its inverse Riemann "
-              "map (pcgeom.maps.riemann); else the local mesh laid on the domain, holes on "
-              "holes, then refined (pcgeom.maps.domain)",
+              "map (pcgeom.maps.riemann); onto a domain with holes, or with landmarks, the "
+              "barrier map that folds nothing (pcgeom.maps.domain, pcgeom.maps.injective); "
+              "onto a disk with landmarks, or where a domain hole gets no hole of the cloud, "
+              "the local mesh laid on the domain, then refined",
     "networks": "Algorithm 1's network stages, then the refinement (pcgeom.maps.networks)",
     "sphere": "onto the sphere, a closed genus-0 cloud: the spherical conformal map of its "
               "closed local mesh (pcgeom.maps.sphere)",
@@ -150,7 +152,8 @@ def parametrize(
         Defaults to the ``fast`` preset. It chooses the map: the free boundary by
         ``free_map``, a disk without landmarks by ``disk_map``, any other domain or landmarks
         by ``domain_map`` (``"networks"``: Algorithm 1's stages, then ``refine``;
-        ``"localmesh"``: the local mesh laid on the domain, then ``local_mesh.domain_refine``).
+        ``"localmesh"``: :func:`pcgeom.maps.domain.domain_map`, the Riemann map onto a domain
+        without holes, the barrier map onto one with holes or with landmarks).
     landmarks : sequence of ((n_k, 3), (m_k, 2)) pairs
         Landmark points on the surface (same frame as ``points``) and their target sets in
         the domain; sizes may differ. Needs a bounded domain.
