@@ -459,16 +459,6 @@ def topology_record(topology: Topology | None) -> dict:
             "topology": topology.to_dict()}
 
 
-RIM_SLIVER = 2.0 * np.pi / 3.0
-"""A rim triangle whose angle opposite its rim edge is wider than this (radians) is a sliver
-that :func:`mesh_flips` leaves out (the disk map's own peel angle)."""
-
-
-def _face_keys(F: np.ndarray, n: int) -> np.ndarray:
-    """One integer per triangle of ``F`` (indices below ``n``), whatever its corners' order."""
-    return np.sort(np.asarray(F, dtype=np.int64), axis=1) @ np.array([n * n, n, 1])
-
-
 def mesh_flips(X: np.ndarray, mesh: LocalMesh, U: np.ndarray,
                dropped: np.ndarray | None = None) -> dict:
     """The triangles of the mesh's main part that the map ``U`` (N, 2) turns over, and where

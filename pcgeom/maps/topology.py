@@ -35,6 +35,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..mesh import half_edges as _directed
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
 
@@ -130,10 +131,6 @@ def measure(faces: np.ndarray) -> dict:
 
 
 # --------------------------------------------------------------------------- loops
-
-
-def _directed(F: np.ndarray) -> np.ndarray:
-    return np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
 
 
 def simple_loops(faces: np.ndarray) -> list[np.ndarray]:
