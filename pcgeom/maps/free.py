@@ -276,6 +276,19 @@ def conformal_factor(X: np.ndarray, U: np.ndarray, neighbours: int = 8) -> np.nd
     return 0.5 * np.median(ratio, axis=1)
 
 
+def mesh_for(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
+             progress: bool, outlier: np.ndarray | None = None, **where
+             ) -> tuple[LocalMesh, np.ndarray, dict]:
+    """The local mesh of the cloud as ``config.local_mesh`` sets it
+    (:func:`pcgeom.maps.localmesh.mesh_cloud`; ``outlier``: its strays, when already found;
+    ``where``: ``onto``, the planar domain's name, or ``closed=True``)."""
+    settings = config.local_mesh
+    outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, dtype=bool)
+    return mesh_cloud(Xn, normals, settings.neighbours, settings.normal_neighbours,
+                      progress=progress, normal_scales=settings.normal_scales,
+                      normal_tolerance=settings.normal_tolerance, outlier=outlier, **where)
+
+
 def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
                progress: bool, outlier: np.ndarray | None = None, onto: str = "free"
                ) -> tuple[np.ndarray, LocalMesh, np.ndarray, dict]:
@@ -293,11 +306,8 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     t0 = time.perf_counter()
     settings = config.local_mesh
     outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, dtype=bool)
-    mesh, normals, record = mesh_cloud(Xn, normals, settings.neighbours,
-                                       settings.normal_neighbours, progress=progress,
-                                       normal_scales=settings.normal_scales,
-                                       normal_tolerance=settings.normal_tolerance,
-                                       outlier=outlier, onto=onto)
+    mesh, normals, record = mesh_for(Xn, normals, config, progress=progress, outlier=outlier,
+                                     onto=onto)
 
     def solve(mesh: LocalMesh) -> tuple[np.ndarray, dict]:
         stats: dict = {}

@@ -440,18 +440,12 @@ def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: 
         As :func:`pcgeom.maps.localmesh.mesh_cloud` (not a surface) and
         :func:`closed_mesh` (open, or genus above 0).
     """
-    from ..neighbours import find_outliers
-    from .free import conformal_factor
-    from .localmesh import _interpolate_rest, mesh_cloud
+    from .free import conformal_factor, mesh_for
+    from .localmesh import _interpolate_rest
 
     t0 = time.perf_counter()
-    settings = config.local_mesh
-    outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, dtype=bool)
-    mesh, normals, record = mesh_cloud(Xn, normals, settings.neighbours,
-                                       settings.normal_neighbours, progress=progress,
-                                       normal_scales=settings.normal_scales,
-                                       normal_tolerance=settings.normal_tolerance,
-                                       outlier=outlier, closed=True)
+    mesh, normals, record = mesh_for(Xn, normals, config, progress=progress, outlier=outlier,
+                                     closed=True)
     index, F, topology = closed_mesh(Xn, mesh)
     V = Xn[index]
     F = outward(V, F)  # the normals may have been oriented inward
