@@ -187,6 +187,10 @@ def test_configs_are_frozen(obj, attr):
         (lambda: PullConfig(weight=float("nan")),
          "PullConfig.weight: expected a positive finite number, got nan"),
         (lambda: PullConfig(growth=0.5), "PullConfig.growth: expected a number >= 1, got 0.5"),
+        (lambda: PullConfig(growth=-2.0),
+         "PullConfig.growth: expected a positive finite number, got -2.0"),
+        (lambda: InjectiveConfig(rim_angle=190.0),
+         "InjectiveConfig.rim_angle: expected degrees in (0, 180], got 190.0"),
         (lambda: PullConfig(stages=0), "PullConfig.stages: expected an int >= 1, got 0"),
         (lambda: PullConfig(iterations=0), "PullConfig.iterations: expected an int >= 1, got 0"),
         (lambda: PullConfig(tolerance=0), "PullConfig.tolerance: expected a positive finite "
