@@ -13,7 +13,8 @@ from ..errors import InputError
 
 __all__ = ["EXIT_OK", "EXIT_FAILURE", "EXIT_USAGE", "EXIT_INTERRUPTED", "Parser", "int_at_least",
            "seed", "denoise_option", "add_denoise_option", "texture_spec", "add_texture_option",
-           "texture_line", "distinct_paths", "add_cloud_and_map", "load_free_map", "print_angles",
+           "texture_line", "distinct_paths", "add_output_options", "add_cloud_and_map",
+           "load_free_map", "print_angles",
            "print_noise", "flip_places", "add_command", "standalone_parser", "run_command"]
 
 EXIT_OK = 0
@@ -114,6 +115,23 @@ def distinct_paths(inputs: dict[str, str | None], outputs: dict[str, Path | None
         if resolved in seen:
             raise InputError(f"{os.fspath(path)}: {option} is the same file as {seen[resolved]}")
         seen[resolved] = option
+
+
+def add_output_options(p: argparse.ArgumentParser, out: str | None, out_help: str = "", *,
+                       required: bool = False, short: bool = False, quiet: bool = True,
+                       instead: str = "a summary") -> None:
+    """The options of what a command writes and says, the same in every command: ``--out``
+    (metavar ``out``, help ``out_help``; ``-o`` as well when ``short``; none when ``out`` is
+    None), ``--quiet`` (when ``quiet``: no progress) and ``--json`` (one JSON object on stdout
+    instead of ``instead``)."""
+    if out is not None:
+        p.add_argument(*(["-o"] if short else []), "--out", required=required, metavar=out,
+                       help=out_help)
+    if quiet:
+        p.add_argument("--quiet", action="store_true",
+                       help="no progress (bars on a terminal, a few lines in a log)")
+    p.add_argument("--json", action="store_true",
+                   help=f"print one JSON object on stdout instead of {instead}")
 
 
 def add_cloud_and_map(p: argparse.ArgumentParser) -> None:

@@ -12,7 +12,8 @@ from ..config import PRESETS, get_preset
 from ..domains import DOMAINS, get_domain
 from ..errors import InputError
 from ..io import SUPPORTED_EXTENSIONS
-from ._common import EXIT_FAILURE, EXIT_OK, int_at_least, run_command, seed, standalone_parser
+from ._common import (EXIT_FAILURE, EXIT_OK, add_output_options, int_at_least, run_command,
+                      seed, standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -49,8 +50,7 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help=f"point cloud files ({' '.join(SUPPORTED_EXTENSIONS)}), glob patterns "
                         "(quote them), or @LIST: a text file with one path or pattern per line")
-    p.add_argument("--out", required=True, metavar="DIR",
-                   help="output directory (created if missing)")
+    add_output_options(p, "DIR", "output directory (created if missing)", required=True)
     p.add_argument("--domain", default="free", metavar="SPEC",
                    help=f"parameter domain: {', '.join(n for n in DOMAINS if n != 'polygon')}, "
                         "NAME:VALUES, PATH.json or PATH.png, as in 'pcgeom param' (default: free "
@@ -76,10 +76,6 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--retries", type=int_at_least(0), default=2, metavar="R",
                    help="retries of a scan after an error that is not bad input, or after "
                         "its worker died (default: 2)")
-    p.add_argument("--quiet", action="store_true",
-                   help="no progress (a bar on a terminal, a few lines in a log)")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object on stdout instead of a summary")
     p.set_defaults(run=run)
 
 

@@ -14,8 +14,8 @@ from ..config import get_preset
 from ..io import check_writable, read_points
 from ..io.atomic import write_atomic
 from ..maps import parametrize
-from ._common import (EXIT_OK, add_cloud_and_map, distinct_paths, load_free_map, run_command,
-                      standalone_parser)
+from ._common import (EXIT_OK, add_cloud_and_map, add_output_options, distinct_paths,
+                      load_free_map, run_command, standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -90,13 +90,9 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="remove every triangle with an edge longer than H in the map (the "
                         "paper's rule; default: a rule from the local point spacing)")
     add_hole_options(p)
-    p.add_argument("--out", required=True, metavar="LOOPS.json", help="the loops, as JSON")
+    add_output_options(p, "LOOPS.json", "the loops, as JSON", required=True)
     p.add_argument("--plot", metavar="LOOPS.png",
                    help="also draw the map with the loops and the removed triangles")
-    p.add_argument("--quiet", action="store_true",
-                   help="no progress (bars on a terminal, a few lines in a log)")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object on stdout instead of a summary")
     p.set_defaults(run=run)
 
 

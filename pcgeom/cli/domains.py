@@ -8,7 +8,8 @@ import sys
 from ..domains import DOMAINS, get_domain
 from ..errors import InputError
 from ..io import check_writable
-from ._common import EXIT_OK, int_at_least, run_command, seed, standalone_parser
+from ._common import (EXIT_OK, add_output_options, int_at_least, run_command, seed,
+                      standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -38,12 +39,11 @@ def configure(p) -> None:
     p.add_argument("spec", nargs="?", metavar="SPEC",
                    help="with show: a domain, e.g. car, rect:2, annulus:0.4, PATH.json or "
                         "PATH.png")
-    p.add_argument("-o", "--out", metavar="OUT.png", help="with show: the figure to write")
+    add_output_options(p, "OUT.png", "with show: the figure to write", short=True, quiet=False,
+                       instead="text")
     p.add_argument("--n", type=int_at_least(1), default=2000,
                    help="with show: sample points drawn (default: 2000)")
     p.add_argument("--seed", type=seed, default=0, help="with show: sample seed (default: 0)")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object on stdout instead of text")
     p.set_defaults(run=run)
 
 

@@ -11,8 +11,8 @@ from pathlib import Path
 from ..apps.evaluate import PLOT_FILES, evaluate_map
 from ..errors import InputError
 from ..io import ParamResult, check_writable, read_points
-from ._common import (EXIT_OK, distinct_paths, print_angles, print_domain_fit, run_command,
-                      standalone_parser)
+from ._common import (EXIT_OK, add_output_options, distinct_paths, print_angles,
+                      print_domain_fit, run_command, standalone_parser)
 
 __all__ = ["configure", "run", "main"]
 
@@ -60,8 +60,7 @@ def configure(p) -> None:
                         ".png writes the angle histogram only")
     p.add_argument("--no-baselines", action="store_true",
                    help="do not run libigl's LSCM and harmonic disk map on MESH")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object on stdout instead of a summary")
+    add_output_options(p, None, quiet=False)
     p.set_defaults(run=run)
 
 

@@ -26,7 +26,8 @@ from ..examples import EXAMPLES, load_example
 from ..io import PointCloud, check_writable, read_landmarks, read_points, write_ply_atomic
 from ..maps import choose_map, parametrize
 from ..train import LOSS_TERMS, resolve_device
-from ._common import (EXIT_OK, add_denoise_option, add_texture_option, distinct_paths,
+from ._common import (EXIT_OK, add_denoise_option, add_output_options, add_texture_option,
+                      distinct_paths,
                       flip_places, int_at_least, print_angles, print_domain_fit, print_noise,
                       run_command, seed, standalone_parser, texture_line)
 
@@ -104,9 +105,9 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threads", type=int_at_least(1), metavar="T",
                    help="torch threads on the CPU (default: torch's, one per core); on a "
                         "machine busy with other work, 1 can be several times faster")
-    p.add_argument("--out", metavar="OUT.npz",
-                   help="output map (default: <input stem>_uv.npz next to the input; "
-                        "<example>_uv.npz in the current directory for --example)")
+    add_output_options(p, "OUT.npz", "output map (default: <input stem>_uv.npz next to the "
+                                     "input; <example>_uv.npz in the current directory for "
+                                     "--example)")
     p.add_argument("--out-ply", metavar="MAPPED.ply",
                    help="also write the mapped points (z = 0, input faces if any) as PLY; "
                         "on the sphere, the unit vectors")
@@ -119,10 +120,6 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="also draw the map coloured by lambda_inv")
     p.add_argument("--resume", action="store_true",
                    help="continue from the checkpoint <out stem>.ckpt if it exists")
-    p.add_argument("--quiet", action="store_true",
-                   help="no progress (bars on a terminal, a few lines in a log)")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object on stdout instead of a summary")
     p.set_defaults(run=run)
 
 

@@ -17,9 +17,9 @@ from ..errors import InputError
 from ..io import read_points
 from ..maps import parametrize
 from .boundary import add_hole_options
-from ._common import (EXIT_OK, add_cloud_and_map, add_denoise_option, add_texture_option,
-                      distinct_paths, int_at_least, load_free_map, print_noise, run_command,
-                      standalone_parser, texture_line)
+from ._common import (EXIT_OK, add_cloud_and_map, add_denoise_option, add_output_options,
+                      add_texture_option, distinct_paths, int_at_least, load_free_map,
+                      print_noise, run_command, standalone_parser, texture_line)
 
 __all__ = ["configure", "run", "main"]
 
@@ -95,14 +95,9 @@ def configure(p) -> None:
     add_denoise_option(p)
     p.add_argument("--target-vertices", type=int_at_least(3), default=5000, metavar="N",
                    help="about how many vertices the mesh gets (default: 5000)")
-    p.add_argument("--out", required=True, metavar="MESH.ply|MESH.obj",
-                   help="the mesh, as PLY or OBJ (by extension), with the map as its texture "
-                        "coordinates")
+    add_output_options(p, "MESH.ply|MESH.obj", "the mesh, as PLY or OBJ (by extension), with "
+                       "the map as its texture coordinates", required=True)
     add_texture_option(p, "--out")
-    p.add_argument("--quiet", action="store_true",
-                   help="no progress (bars on a terminal, a few lines in a log)")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object on stdout instead of a summary")
     p.set_defaults(run=run)
 
 
