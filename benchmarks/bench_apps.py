@@ -36,67 +36,6 @@ TARGETS = {  # the issue's, quoted beside the measurements
 BOUNDARY_RULES = ([], ["--min-width", "1"], ["--cloud-spacing", "--min-width", "1"])
 
 
-def boundary_scores(found: list[list[int]], F: np.ndarray) -> dict:
-    """Precision and recall of the detected boundary points against the reference mesh's
-    (vertices of edges of one triangle), and how many of its loops come out as exactly one
-    detected loop each (one holding at least half of its points, shared by no other)."""
-    import igl
-
-    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    edges, counts = np.unique(E, axis=0, return_counts=True)
-    true_vertices = np.unique(edges[counts == 1])
-    true_loops = [np.asarray(loop) for loop in igl.boundary_loop_all(np.ascontiguousarray(F))]
-    detected = np.unique(np.concatenate(found)) if found else np.zeros(0, dtype=np.int64)
-    hit = np.intersect1d(detected, true_vertices)
-    best = []
-    for loop in true_loops:
-        overlap = [len(np.intersect1d(loop, d)) for d in found] or [0]
-        k = int(np.argmax(overlap))
-        best.append(k if overlap[k] >= 0.5 * len(loop) else None)
-    matched = [k for k in best if k is not None]
-    return {"precision": len(hit) / len(detected) if len(detected) else None,
-            "recall": len(hit) / len(true_vertices) if len(true_vertices) else None,
-            "loops": len(found), "true_loops": len(true_loops),
-            "recovered": sum(1 for k in matched if matched.count(k) == 1)}
-
-
-def _area(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    return 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]),
-                                axis=1)  # (M,)
-
-
-def _area_sample(V: np.ndarray, F: np.ndarray, n: int, rng) -> np.ndarray:
-    """``n`` points uniform by area on the triangles ``F``, plus the vertices they use."""
-    area = _area(V, F)
-    face = rng.choice(len(F), size=n, p=area / area.sum())
-    s, r2 = np.sqrt(rng.random(n)), rng.random(n)
-    P = ((1 - s)[:, None] * V[F[face, 0]] + (s * (1 - r2))[:, None] * V[F[face, 1]]
-         + (s * r2)[:, None] * V[F[face, 2]])  # (n, 3)
-    return np.vstack([V[np.unique(F)], P])
-
-
-def score_mesh(V, F, P, Ft, diag: float, n: int = 50_000, seed: int = 0) -> dict:
-    """Distances between the mesh ``(V, F)`` and the reference ``(P, Ft)`` over ``diag``
-    (exact, libigl): ``hausdorff_rel`` (both ways), ``mean_rel`` (the two directions' means
-    averaged), ``to_true_rel`` (accuracy), ``from_true_rel`` (completeness); ``area_ratio``;
-    and the topology of :func:`pcgeom.apps.reconstruct.mesh_report`."""
-    import igl
-
-    from pcgeom.apps.reconstruct import mesh_report
-
-    rep, rng = mesh_report(V, F, P), np.random.default_rng(seed)
-    V, Vt = np.ascontiguousarray(V, np.float64), np.ascontiguousarray(P, np.float64)
-    F, Ft = np.ascontiguousarray(F, np.int64), np.ascontiguousarray(Ft, np.int64)
-    d_to = np.sqrt(igl.point_mesh_squared_distance(_area_sample(V, F, n, rng), Vt, Ft)[0])
-    d_from = np.sqrt(igl.point_mesh_squared_distance(_area_sample(Vt, Ft, n, rng), V, F)[0])
-    return {"hausdorff_rel": float(max(d_to.max(), d_from.max()) / diag),
-            "mean_rel": float(0.5 * (d_to.mean() + d_from.mean()) / diag),
-            "to_true_rel": float(d_to.max() / diag), "from_true_rel": float(d_from.max() / diag),
-            "area_ratio": float(_area(V, F).sum() / _area(Vt, Ft).sum()),
-            **{k: rep[k] for k in ("n_vertices", "n_faces", "edge_manifold", "oriented",
-                                   "n_boundary_loops", "min_angle_deg")}}
-
-
 def meshlab_meshes(P: np.ndarray) -> list[dict]:
     """Ball pivoting (MeshLab's radius guess) and screened Poisson (normals from 10
     neighbours, depth 8), MeshLab's defaults otherwise, each timed (filter calls only)."""
@@ -161,7 +100,7 @@ def bench_input(kind: str, src: Path, given, args, s: H.Surface, diag: float, di
         row["boundary"].append(b := {"args": " ".join(extra), "seconds": run["wall_s"],
                                      "error": run["error"], "input": kind})
         if not run["error"]:
-            b.update(boundary_scores(json.loads(loops.read_text())["loops"], s.F),
+            b.update(H.boundary_scores(json.loads(loops.read_text())["loops"], s.F),
                      n_dropped=run["json"]["n_dropped"])
         H.log(f"{s.name} ({kind}): boundary {b['args']}: {b.get('loops', b['error'])} loops")
     target = args.target_vertices or len(s.V)
@@ -185,12 +124,12 @@ def bench_input(kind: str, src: Path, given, args, s: H.Surface, diag: float, di
 
 
 def score(r: dict, s: H.Surface, diag: float) -> dict:
-    """The reconstruction ``r`` with :func:`score_mesh` in place of its mesh."""
+    """The reconstruction ``r`` with :func:`harness.score_mesh` in place of its mesh."""
     V, F = r.pop("V", None), r.pop("F", None)
     if r["error"]:
         H.log(f"{s.name}: {r['method']}: FAILED: {r['error']}")
         return r
-    r.update(score_mesh(V, F, s.V, s.F, diag))
+    r.update(H.score_mesh(V, F, s.V, s.F, diag))
     H.log(f"{s.name}: {r['method']}: Hausdorff {r['hausdorff_rel']:.4f} diag, "
           f"{r['n_boundary_loops']} loops, manifold {r['edge_manifold']}, {r['seconds']:.1f} s")
     return r
@@ -201,7 +140,7 @@ def bench_surface(name: str, args) -> dict:
         return {"name": name, "skipped": f"{H.data_file(name)} not found"}
     s = H.load_surface(name)
     diag = float(np.linalg.norm(s.V.max(axis=0) - s.V.min(axis=0)))
-    true_loops = boundary_scores([], s.F)["true_loops"]
+    true_loops = H.boundary_scores([], s.F)["true_loops"]
     disk = true_loops == 1 and not args.no_disk  # a disk-like surface: also onto the disk
     normals = H.write_with_normals(args.work / f"{name}_normals.ply", s.V, s.F)
     inputs = [bench_input("normals", normals, None, args, s, diag, disk),

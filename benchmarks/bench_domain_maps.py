@@ -7,9 +7,9 @@ refinement steps) and the disk map of the same cloud, for contrast. Every map is
 reference triangles (never used to map): angle distortion, flipped triangles, the Hausdorff
 distance of the mapped surface to the domain, and, with landmarks, of the mapped landmark
 points to their targets. Cases: three peaks onto the square; face_3holes_small_choi onto the
-smile, and Loop-subdivided once (19.9k points); a 20k car shell with 11 holes onto the car (``examples/car.py``'s shell, holes cut);
-three peaks with a hole cut onto ``annulus:auto``; the car shell with the window-edge
-landmarks (the paper's 7.4). Replaces the section ``bench_domain_maps`` of BENCHMARKS.md.
+smile, and Loop-subdivided once (19.9k points); a 20k car shell with 11 holes onto the car
+(``pcgeom.synthetic.car_shell``, holes cut); three peaks with a hole cut onto
+``annulus:auto``; the car shell with the window-edge landmarks (the paper's 7.4). Replaces the section ``bench_domain_maps`` of BENCHMARKS.md.
 """
 
 from __future__ import annotations
@@ -24,8 +24,6 @@ from pathlib import Path
 
 import harness as H
 import numpy as np
-
-sys.path.insert(0, os.fspath(H.REPO / "examples"))  # car.py
 
 TARGETS = {  # case -> (max rad, max flipped %, max surface Hausdorff, max wall s), issue 24
     "peaks3 onto square": (0.03, 0.05, 0.01, 60.0),
@@ -53,10 +51,9 @@ def _cut(V, F, centres, radius):
 
 def cases(work: Path) -> list[dict]:
     """The cases: name, input file, mesh, domain, landmarks file and their rows and targets."""
-    from car import TARGET_LINES, TARGET_SPACING, car_shell
-
     from pcgeom.io import write_ply_atomic
     from pcgeom.io.landmarks import sample_polyline
+    from pcgeom.synthetic import CAR_TARGET_LINES, CAR_TARGET_SPACING, car_lift, car_shell
 
     out = []
     peaks = H.load_surface("peaks3")
@@ -79,9 +76,7 @@ def cases(work: Path) -> list[dict]:
     rng = np.random.default_rng(1)
     centres = np.column_stack([rng.uniform(-0.8, 0.8, 11), rng.uniform(-0.5, 0.5, 11)])
     # The holes are cut around points of the shell above those domain points.
-    from car import lift
-
-    V, F = _cut(V, F, lift(centres), 0.06)
+    V, F = _cut(V, F, car_lift(centres), 0.06)
     write_ply_atomic(shell := work / "car_shell_11holes.ply", V, F)
     out.append({"name": "car shell (11 holes) onto car", "src": shell, "V": V, "F": F,
                 "domain": "car"})
@@ -97,8 +92,10 @@ def cases(work: Path) -> list[dict]:
     V, F, edges = car_shell(2500, seed=0)
     write_ply_atomic(shell := work / "car_shell.ply", V, F)
     (marks := work / "car_landmarks.json").write_text(json.dumps(
-        [{"indices": edges.tolist(), "polylines": TARGET_LINES, "spacing": TARGET_SPACING}]))
-    targets = np.vstack([sample_polyline(line, TARGET_SPACING) for line in TARGET_LINES])
+        [{"indices": edges.tolist(), "polylines": CAR_TARGET_LINES,
+          "spacing": CAR_TARGET_SPACING}]))
+    targets = np.vstack([sample_polyline(line, CAR_TARGET_SPACING)
+                         for line in CAR_TARGET_LINES])
     out.append({"name": "car shell, window landmarks", "src": shell, "V": V, "F": F,
                 "domain": "car", "landmarks": marks, "marks": (edges, targets)})
     return out

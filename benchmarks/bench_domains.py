@@ -5,8 +5,9 @@ the reference triangles (never used for training) with the Hausdorff distances t
 of the mapped points and of the mapped triangles. disk: ``peaks3`` and ``face_human_choi``
 (bare and with the mesh's normals), beside ``fast`` with ``disk_refine`` (in process, first
 seed) and libigl's harmonic map; smile: does each hole of ``face_3holes_small_choi`` land on
-one eye or the mouth (``examples/face_smile.py``; if not, again with the holes as
-landmarks)?; car: the shell of ``examples/car.py`` without and with window-edge landmarks.
+one eye or the mouth (``pcgeom.apps.evaluate.hole_landing``; if not, again with the holes as
+landmarks)?; car: the shell of ``pcgeom.synthetic.car_shell`` without and with window-edge
+landmarks.
 The three groups run as ``--streams`` concurrent streams: run with ``OMP_NUM_THREADS=1``.
 Replaces the section ``bench_domains`` of BENCHMARKS.md.
 """
@@ -25,7 +26,6 @@ from pathlib import Path
 import harness as H
 import numpy as np
 
-sys.path.insert(0, os.fspath(H.REPO / "examples"))  # face_smile.py, car.py
 
 TARGETS = {  # surface -> (max Hausdorff to the disk, max rad, max flips, max wall s), issue 11
     "peaks3": (0.01, 0.06, 0, 120.0),
@@ -73,7 +73,7 @@ def disk_rows(seeds, work: Path, refine: bool = True) -> list[dict]:
 
 
 def smile_rows(seeds, work: Path, landmarks: bool = True, presets=("fast",)) -> list[dict]:
-    from face_smile import cloud_holes, domain_holes, hole_landmarks, landing
+    from pcgeom.apps.evaluate import domain_holes, hole_landing, hole_landmarks, mesh_holes
 
     from pcgeom import ParamResult, get_domain
 
@@ -81,14 +81,14 @@ def smile_rows(seeds, work: Path, landmarks: bool = True, presets=("fast",)) -> 
         H.log(f"{H.data_file('face_3holes_small_choi')} is missing: the smile rows are left out")
         return []
     s = H.load_surface("face_3holes_small_choi")
-    holes, targets = cloud_holes(s.V, s.F), domain_holes(get_domain("smile"))
+    holes, targets = mesh_holes(s.V, s.F), domain_holes(get_domain("smile"))
     rows = []
 
     def row(method, seeds, preset, marks=None):
         runs = H.param_runs(s.src, s.V, s.F, work, seeds, preset=preset, domain="smile",
                             landmarks=marks)
         maps = [ParamResult.load(r["out"]).uv for r in runs]
-        lands = [landing(U, holes, targets) for U in maps]
+        lands = [hole_landing(U, holes, targets) for U in maps]
         rows.append(H.summary(runs, method=method, landing=lands[0],
                               all_land=[land["all_land"] for land in lands]))
         return maps[0], lands[0]["all_land"]
@@ -106,18 +106,19 @@ def smile_rows(seeds, work: Path, landmarks: bool = True, presets=("fast",)) -> 
 
 
 def car_rows(seeds, n: int, work: Path, presets=("fast",)) -> list[dict]:
-    from car import TARGET_LINES, TARGET_SPACING, car_shell
-
     from pcgeom import ParamResult
     from pcgeom.io import write_ply_atomic
     from pcgeom.io.landmarks import sample_polyline
     from pcgeom.metrics import hausdorff
+    from pcgeom.synthetic import CAR_TARGET_LINES, CAR_TARGET_SPACING, car_shell
 
     V, F, edges = car_shell(n, seed=0)
     write_ply_atomic(shell := work / "car_shell.ply", V, F)
     (marks := work / "car_landmarks.json").write_text(json.dumps(
-        [{"indices": edges.tolist(), "polylines": TARGET_LINES, "spacing": TARGET_SPACING}]))
-    targets = np.vstack([sample_polyline(line, TARGET_SPACING) for line in TARGET_LINES])
+        [{"indices": edges.tolist(), "polylines": CAR_TARGET_LINES,
+          "spacing": CAR_TARGET_SPACING}]))
+    targets = np.vstack([sample_polyline(line, CAR_TARGET_SPACING)
+                         for line in CAR_TARGET_LINES])
     rows = []
     for preset in presets:
         for method, lm in ((f"pcgeom `{preset}`", None),
@@ -239,7 +240,7 @@ def render(disk, smile, car, args, argv, started: float) -> str:
                 "local mesh laid on the domain, its holes on the domain's holes, then refined; "
                 "medians over the seeds). A hole *lands* when the closed polygon of its "
                 "mapped boundary points encloses one domain hole and no other, one to one "
-                "(`examples/face_smile.py`, `landing`):", "", *H.table([
+                "(`pcgeom.apps.evaluate.hole_landing`):", "", *H.table([
                     ("method", "{method}"), ("seeds", lambda r: " ".join(map(str, r["seeds"]))),
                     ("every hole lands, per seed",
                      lambda r: ", ".join("yes" if a else "NO" for a in r["all_land"])),
@@ -253,7 +254,8 @@ def render(disk, smile, car, args, argv, started: float) -> str:
                 "", "Target (issue 11): every hole lands: " + ("PASS" if fast_lands else "FAIL")
                 + " (`fast`, every seed)", ""]
     if car:
-        out += [f"The analytic car shell of `examples/car.py` ({car[0]['points']} points) onto "
+        out += [f"The analytic car shell of `pcgeom.synthetic.car_shell` "
+                f"({car[0]['points']} points) onto "
                 f"`car`, medians over the seeds: landmark fit is the Hausdorff distance "
                 f"between the {car[0]['landmarks']} mapped window-edge points (one set) and the "
                 f"{car[0]['targets']} targets on [-0.5, 0.5] x {{-0.25, 0.25}}:", "", *H.table([
@@ -271,7 +273,8 @@ def main(argv=None) -> int:
                    help="seeds of the disk runs (default: 0 1 2)")
     p.add_argument("--skip", nargs="*", default=[], choices=["disk", "smile", "car"])
     p.add_argument("--car-points", type=int, default=2500,
-                   help="domain samples of the car shell (examples/car.py; default: 2500)")
+                   help="domain samples of the car shell (pcgeom.synthetic.car_shell; "
+                        "default: 2500)")
     p.add_argument("--smile-landmarks", choices=("auto", "never"), default="auto",
                    help="auto: a second smile run with the holes as landmarks when the first "
                         "does not land every hole (default: auto)")

@@ -37,7 +37,6 @@ LSCM_RATIO = 2.0
 def rows_of(gap: float, seeds, work: Path) -> tuple[list[dict], dict]:
     """The map rows of one pleat and its boundary row."""
     import pcgeom
-    from bench_apps import boundary_scores
     from pcgeom.apps.baselines import lscm
     from pcgeom.synthetic import pleated_sheet
 
@@ -76,7 +75,7 @@ def rows_of(gap: float, seeds, work: Path) -> tuple[list[dict], dict]:
     run = H.pcgeom_cli("boundary", bare, "--out", loops, check=False)
     boundary = {"case": name, "seconds": run["wall_s"], "error": run["error"]}
     if not run["error"]:
-        boundary.update(boundary_scores(json.loads(loops.read_text())["loops"], F))
+        boundary.update(H.boundary_scores(json.loads(loops.read_text())["loops"], F))
     H.log(f"{name}: boundary {boundary.get('loops', boundary['error'])} loops")
     return rows, boundary
 

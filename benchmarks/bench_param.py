@@ -1,8 +1,8 @@
 """Benchmark ``pcgeom param`` as a user runs it, against mesh-based and meshless baselines.
 
 The CLI once per seed (harness.param_runs), beside :data:`pcgeom.apps.baselines.BASELINES`
-timed in this process; every map scored by ``map_report`` on the reference mesh. Rewrites
-BENCHMARKS.md, keeping the other scripts' sections (benchmarks/README.md).
+timed in this process; every map scored by ``map_report`` on the reference mesh. Writes the
+head of BENCHMARKS.md, keeping the other scripts' sections (harness.write_head).
 """
 
 from __future__ import annotations
@@ -215,8 +215,7 @@ def main(argv: list[str] | None = None) -> int:
                    for name in args.surfaces]
     env["load_average_end"] = H.loadavg()
     text = render(results, env, args, startup)
-    old = args.out.read_text(encoding="utf-8") if args.out.exists() else ""
-    H.write_text(args.out, H.carry_sections(old, text))
+    H.write_head(args.out, text)
     if args.json is not None:
         H.write_json(args.json, {"environment": env, "preset": args.preset, "domain": args.domain,
                                  "repeats": args.repeats, "startup_s": startup, "target": TARGET,

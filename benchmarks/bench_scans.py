@@ -176,20 +176,17 @@ def reconstruct_rows(names, work: Path, level: float = 0.5, seeds=(0, 1, 2)) -> 
     """``pcgeom reconstruct`` of bare clouds with depth noise, ``--denoise off`` and
     ``auto``: distances from the mesh's vertices to the clean mesh, and from the clean mesh's
     vertices to the mesh, in units of the noise's std."""
-    import igl
     import trimesh
 
     rows = []
     for name in names:
         V, F = (s := H.load_surface(name)).V, s.F
-        F64 = np.ascontiguousarray(F, dtype=np.int64)
         for seed in seeds:
             Vn, std = depth_noisy(V, F, level, seed)
             src = work / f"{name}_depth{level}_{seed}.xyz"
             np.savetxt(src, Vn)
             row = {"surface": name, "level": level, "seed": seed,
-                   "points_max": float(np.sqrt(igl.point_mesh_squared_distance(Vn, V, F64)[0])
-                                       .max() / std)}
+                   "points_max": float(H.distances(Vn, V, F).max() / std)}
             for mode in ("off", "auto"):
                 out = work / f"{name}_depth{level}_{seed}_{mode}.ply"
                 run = H.pcgeom_cli("reconstruct", src, "--out", out, "--denoise", mode,
@@ -198,10 +195,8 @@ def reconstruct_rows(names, work: Path, level: float = 0.5, seeds=(0, 1, 2)) -> 
                     row[f"{mode}_error"] = run["error"]
                     continue
                 m = trimesh.load(out, process=False)
-                Vm = np.asarray(m.vertices, dtype=np.float64)
-                Fm = np.ascontiguousarray(m.faces, dtype=np.int64)
-                to_clean = np.sqrt(igl.point_mesh_squared_distance(Vm, V, F64)[0]) / std
-                from_clean = np.sqrt(igl.point_mesh_squared_distance(V, Vm, Fm)[0]) / std
+                to_clean = H.distances(m.vertices, V, F) / std
+                from_clean = H.distances(V, m.vertices, m.faces) / std
                 row.update({f"{mode}_max": float(to_clean.max()),
                             f"{mode}_mean": float(to_clean.mean()),
                             f"{mode}_back": float(from_clean.max()),
@@ -226,10 +221,6 @@ def denoise_verdicts(rows) -> list[str]:
     return lines
 
 
-BUMPS = [(0.5, -0.4, -0.3), (0.7, 0.3, 0.4), (0.4, 0.5, -0.5), (-0.3, -0.5, 0.5),
-         (0.35, 0.0, 0.0)]
-"""The scale rows' height field: (height, x, y) of five Gaussian bumps of width 0.22."""
-
 SAMPLINGS = ("uniform", "grid")
 """Uniform random points, and a grid jittered by a tenth of its step (a range scan's rows)."""
 
@@ -240,7 +231,10 @@ slope of log time against log N from 100k to 1M, and the disk at 1M."""
 
 
 def heightfield(n: int, sampling: str = "uniform", seed: int = 0) -> np.ndarray:
-    """``n`` points (about, for the grid) of the five-bump height field over [-1, 1]^2."""
+    """``n`` points (about, for the grid) of the five-bump height field over [-1, 1]^2
+    (:data:`pcgeom.examples.BUMPS`, ``"scale"``)."""
+    from pcgeom.examples import BUMPS, bump_height
+
     rng = np.random.default_rng(seed)
     if sampling == "grid":
         side = int(round(np.sqrt(n)))
@@ -249,33 +243,7 @@ def heightfield(n: int, sampling: str = "uniform", seed: int = 0) -> np.ndarray:
         xy = xy + rng.uniform(-0.1, 0.1, xy.shape) * (g[1] - g[0])
     else:
         xy = rng.uniform(-1.0, 1.0, (n, 2))
-    z = sum(a * np.exp(-((xy[:, 0] - cx) ** 2 + (xy[:, 1] - cy) ** 2) / 0.1)
-            for a, cx, cy in BUMPS)
-    return np.column_stack([xy, z])
-
-
-def _scored(path, X) -> dict:
-    """Angle distortion and flips of a map file on the height field's true triangles (the
-    Delaunay triangulation of its (x, y)), and the solver and ordering its history names."""
-    from scipy.spatial import Delaunay
-
-    from pcgeom.io import ParamResult
-    from pcgeom.metrics import angle_distortion
-
-    result = ParamResult.load(path, n_points=len(X))
-    F = Delaunay(X[:, :2]).simplices
-    # The triangulation's slivers along the square's sides (an angle of 170 degrees or more)
-    # have no orientation to speak of: left out, as the maps' own flip counts leave them.
-    P = X[:, :2]
-    widest = np.zeros(len(F))
-    for k in range(3):
-        a, b = P[F[:, (k + 1) % 3]] - P[F[:, k]], P[F[:, (k + 2) % 3]] - P[F[:, k]]
-        cos = (a * b).sum(axis=1) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
-        widest = np.maximum(widest, np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
-    rep = angle_distortion(X, F[widest < 170.0], result.uv)
-    record = next((r for r in result.history if "solver" in r), {})
-    return {"rad": rep.mean_abs, "flipped": rep.flipped, "n_faces": rep.n_faces,
-            "solver": record.get("solver") or "-", "ordering": record.get("ordering") or "-"}
+    return np.column_stack([xy, bump_height(xy[:, 0], xy[:, 1], BUMPS["scale"])[0]])
 
 
 def scale_rows(sizes, work: Path, samplings=SAMPLINGS, domain: str = "free",
@@ -306,7 +274,8 @@ def scale_rows(sizes, work: Path, samplings=SAMPLINGS, domain: str = "free",
                 row.update(train_s=float("nan"), rad=float("nan"), flipped=-1,
                            solver="-", ordering="-")
             else:
-                row.update(train_s=run["json"]["seconds"], **_scored(out, X))
+                row.update(train_s=run["json"]["seconds"],
+                           **H.score_file(out, X, H.planar_triangles(X), on_domain=False))
             out.unlink(missing_ok=True)
             rows.append(row)
             H.log(f"{sampling} {n} {domain} ({version}): {row['wall_s']:.1f} s, "

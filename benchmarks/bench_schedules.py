@@ -2,7 +2,7 @@
 
 The paper preset takes hours on a CPU, so its schedule runs with every epoch count (E and
 E_min) times ``--epoch-fraction``; everything else is section 6 exactly. Every stage's map
-is scored with ``map_report`` on the surface's reference mesh. A shared surface
+is scored on the surface's reference mesh (harness.score_map). A shared surface
 (``--surface face_human_choi``) is mapped with the normals its file carries, as ``pcgeom
 param`` does. Replaces the section ``bench_schedules`` of BENCHMARKS.md.
 
@@ -14,40 +14,24 @@ from __future__ import annotations
 
 import os
 import sys
-import time
 
 import harness as H
 
 PRESETS = ("fast", "networks", "paper")
 
 
-def resolve_device(name: str):
-    """pcgeom's choice of device (``"auto"``: CUDA when present), an internal looked up where
-    the package keeps it (pcgeom/train, or pcgeom/maps since the move)."""
-    import importlib
-
-    for module in ("pcgeom.train", "pcgeom.train.device", "pcgeom.maps"):
-        try:
-            return importlib.import_module(module).resolve_device(name)
-        except (ImportError, AttributeError):
-            continue
-    raise ImportError("resolve_device: neither in pcgeom.train nor in pcgeom.maps")
-
-
 def run(name: str, config, surf: H.Surface, device, seed: int) -> list[dict]:
-    """Per-stage rows: the stage's history record, cumulative seconds, and map_report."""
+    """Per-stage rows: the stage's history record, cumulative seconds (:func:`harness.clock`)
+    and :func:`harness.score_map` of the stage's map."""
     import pcgeom
-    from pcgeom.apps.evaluate import map_report
 
     rows: list[dict] = []
-    t0 = time.perf_counter()
+    elapsed = H.clock()
 
     def on_stage(record: dict, uv) -> None:
-        rows.append({**record, **map_report(uv, V=surf.V, F=surf.F),
-                     "elapsed": time.perf_counter() - t0})
-        print(f"{name} stage {record['stage']}: {rows[-1]['elapsed']:.0f} s, "
-              f"{rows[-1]['mean_abs_angle_rad']:.4f} rad, {rows[-1]['flipped']} flips",
-              file=sys.stderr, flush=True)
+        rows.append({**record, **H.score_map(uv, surf.V, surf.F), "elapsed": elapsed()})
+        H.log(f"{name} stage {record['stage']}: {rows[-1]['elapsed']:.0f} s, "
+              f"{rows[-1]['rad']:.4f} rad, {rows[-1]['flipped']} flips")
 
     pcgeom.parametrize(surf.V, "free", config=config, device=device, seed=seed, progress=False,
                        on_stage=on_stage, normals=surf.normals)
@@ -59,8 +43,8 @@ STAGE_COLUMNS = [  # the local-mesh map is one solve: no epochs, batch, sigma or
     ("batch", lambda r: r.get("batch_points", "–")),
     ("sigma", lambda r: f"{r['sigma']:.3g}" if "sigma" in r else "–"),
     ("steps", lambda r: r.get("steps", "–")), ("cumulative s", "{elapsed:.0f}"),
-    ("mean abs angle, rad", "{mean_abs_angle_rad:.4f}"),
-    ("flips", "{flipped} ({flipped_percent:.2f}%)")]
+    ("mean abs angle, rad", "{rad:.4f}"),
+    ("flips", "{flipped} ({flip_pct:.2f}%)")]
 
 
 def main(argv=None) -> int:
@@ -68,6 +52,7 @@ def main(argv=None) -> int:
 
     from pcgeom import get_preset
     from pcgeom.examples import EXAMPLES
+    from pcgeom.train import resolve_device
 
     p = H.parser(__doc__)
     p.add_argument("--surface", default="peaks3",

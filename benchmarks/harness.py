@@ -2,11 +2,14 @@
 
 Running: :func:`pcgeom_cli` (``python -m pcgeom ARGS --quiet --json`` as a subprocess timed
 from outside, with its peak memory), :func:`param_runs` (``pcgeom param`` once per seed, each
-map file scored), :func:`startup`, :func:`timed`. Surfaces: :func:`load_surface`,
-:func:`write_with_normals`. Scores: :func:`score_map` (``map_report`` on the reference
-triangles), :func:`reference` (a baseline map), :func:`summary` (medians, min and max).
-Report: :func:`header`, :func:`table`, :func:`write_section` (one marked section of
-BENCHMARKS.md, atomically), :func:`carry_sections`, :func:`write_json`.
+map file scored), :func:`startup`, :func:`timed`, :func:`clock`. Surfaces:
+:func:`load_surface`, :func:`write_with_normals`, :func:`planar_triangles`. Scores:
+:func:`score_map` (``map_report`` on the reference triangles), :func:`score_file` (of a map
+file), :func:`reference` (a baseline map), :func:`score_mesh` (a reconstructed mesh against
+the reference), :func:`boundary_scores` (detected boundary loops), :func:`distances`,
+:func:`summary` (medians, min and max). Report: :func:`header`, :func:`table`,
+:func:`write_section` (one marked section of BENCHMARKS.md, atomically), :func:`write_head`
+(the part above the sections), :func:`write_json`.
 
 Importing it puts this checkout first on ``sys.path`` and on every subprocess's
 ``PYTHONPATH`` (Dask workers included), so the pcgeom measured is this one, installed or not.
@@ -134,6 +137,13 @@ def timed(fn, *args, **kwargs):
     return result, time.perf_counter() - t0
 
 
+def clock():
+    """A function that gives the seconds since :func:`clock` was called (wall, this process):
+    for figures taken along a run, such as each stage's cumulative time."""
+    t0 = time.perf_counter()
+    return lambda: time.perf_counter() - t0
+
+
 def scaled_preset(name: str, fraction: float):
     """The preset with its epoch counts (E, E_min) and refinement steps times ``fraction``."""
     from dataclasses import replace
@@ -188,6 +198,24 @@ def load_surface(name: str) -> Surface:
     return Surface(name, cloud.points, cloud.faces, cloud.normals, os.fspath(data_file(name)))
 
 
+def planar_triangles(X, max_angle_deg: float = 170.0):
+    """The true triangles of a height field's points ``X`` (N, 3): the Delaunay triangulation
+    of their ``(x, y)``, without its slivers along the square's sides (an angle of
+    ``max_angle_deg`` or more), which have no orientation to speak of (the maps' own flip
+    counts leave them out too). (M, 3) int."""
+    import numpy as np
+    from scipy.spatial import Delaunay
+
+    P = np.asarray(X, dtype=np.float64)[:, :2]
+    F = Delaunay(P).simplices
+    widest = np.zeros(len(F))
+    for k in range(3):
+        a, b = P[F[:, (k + 1) % 3]] - P[F[:, k]], P[F[:, (k + 2) % 3]] - P[F[:, k]]
+        cos = (a * b).sum(axis=1) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+        widest = np.maximum(widest, np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    return F[widest < max_angle_deg]
+
+
 def mesh_normals(V, F):
     """Oriented vertex normals of the mesh (trimesh's area-weighted ones), (N, 3) float64."""
     import numpy as np
@@ -220,12 +248,93 @@ def score_map(U, V, F, domain=None) -> dict:
             "hausdorff": rep["domain_hausdorff"], "surface_h": rep["surface_hausdorff"]}
 
 
-def score_file(path, V, F) -> dict:
-    """:func:`score_map` of a map file, on the domain it records."""
+def score_file(path, V, F, *, on_domain: bool = True) -> dict:
+    """:func:`score_map` of a map file, on the domain it records (``on_domain=False``: the
+    angles and flips only, no Hausdorff distances), with the sparse ``solver`` and its
+    ``ordering`` that its history names ("-" when none)."""
     from pcgeom.io import ParamResult
 
     result = ParamResult.load(path, n_points=len(V))
-    return score_map(result.uv, V, F, result.domain)
+    record = next((r for r in result.history if "solver" in r), {})
+    return {**score_map(result.uv, V, F, result.domain if on_domain else None),
+            "solver": record.get("solver") or "-", "ordering": record.get("ordering") or "-"}
+
+
+def distances(P, V, F):
+    """Each point's distance to the triangle mesh ``(V, F)`` (exact, libigl), (K,)."""
+    import igl
+    import numpy as np
+
+    return np.sqrt(igl.point_mesh_squared_distance(
+        np.ascontiguousarray(P, np.float64), np.ascontiguousarray(V, np.float64),
+        np.ascontiguousarray(F, np.int64))[0])
+
+
+def _areas(V, F):
+    import numpy as np
+
+    return 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]),
+                                axis=1)  # (M,)
+
+
+def _area_sample(V, F, n: int, rng):
+    """``n`` points uniform by area on the triangles ``F``, plus the vertices they use."""
+    import numpy as np
+
+    area = _areas(V, F)
+    face = rng.choice(len(F), size=n, p=area / area.sum())
+    s, r2 = np.sqrt(rng.random(n)), rng.random(n)
+    P = ((1 - s)[:, None] * V[F[face, 0]] + (s * (1 - r2))[:, None] * V[F[face, 1]]
+         + (s * r2)[:, None] * V[F[face, 2]])  # (n, 3)
+    return np.vstack([V[np.unique(F)], P])
+
+
+def score_mesh(V, F, P, Ft, diag: float, n: int = 50_000, seed: int = 0) -> dict:
+    """Distances between the mesh ``(V, F)`` and the reference ``(P, Ft)`` over ``diag``
+    (:func:`distances` of area samples): ``hausdorff_rel`` (both ways), ``mean_rel`` (the two
+    directions' means averaged), ``to_true_rel`` (accuracy), ``from_true_rel``
+    (completeness); ``area_ratio``; and the topology of
+    :func:`pcgeom.apps.reconstruct.mesh_report`."""
+    import numpy as np
+
+    from pcgeom.apps.reconstruct import mesh_report
+
+    rep, rng = mesh_report(V, F, P), np.random.default_rng(seed)
+    V, Vt = np.asarray(V, np.float64), np.asarray(P, np.float64)
+    F, Ft = np.asarray(F, np.int64), np.asarray(Ft, np.int64)
+    d_to = distances(_area_sample(V, F, n, rng), Vt, Ft)
+    d_from = distances(_area_sample(Vt, Ft, n, rng), V, F)
+    return {"hausdorff_rel": float(max(d_to.max(), d_from.max()) / diag),
+            "mean_rel": float(0.5 * (d_to.mean() + d_from.mean()) / diag),
+            "to_true_rel": float(d_to.max() / diag), "from_true_rel": float(d_from.max() / diag),
+            "area_ratio": float(_areas(V, F).sum() / _areas(Vt, Ft).sum()),
+            **{k: rep[k] for k in ("n_vertices", "n_faces", "edge_manifold", "oriented",
+                                   "n_boundary_loops", "min_angle_deg")}}
+
+
+def boundary_scores(found: list[list[int]], F) -> dict:
+    """Precision and recall of the detected boundary points against the reference mesh's
+    (vertices of edges of one triangle), and how many of its loops come out as exactly one
+    detected loop each (one holding at least half of its points, shared by no other)."""
+    import igl
+    import numpy as np
+
+    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    edges, counts = np.unique(E, axis=0, return_counts=True)
+    true_vertices = np.unique(edges[counts == 1])
+    true_loops = [np.asarray(loop) for loop in igl.boundary_loop_all(np.ascontiguousarray(F))]
+    detected = np.unique(np.concatenate(found)) if found else np.zeros(0, dtype=np.int64)
+    hit = np.intersect1d(detected, true_vertices)
+    best = []
+    for loop in true_loops:
+        overlap = [len(np.intersect1d(loop, d)) for d in found] or [0]
+        k = int(np.argmax(overlap))
+        best.append(k if overlap[k] >= 0.5 * len(loop) else None)
+    matched = [k for k in best if k is not None]
+    return {"precision": len(hit) / len(detected) if len(detected) else None,
+            "recall": len(hit) / len(true_vertices) if len(true_vertices) else None,
+            "loops": len(found), "true_loops": len(true_loops),
+            "recovered": sum(1 for k in matched if matched.count(k) == 1)}
 
 
 def reference(fn, V, F, domain: str = "free") -> dict:
@@ -346,6 +455,14 @@ def carry_sections(old_text: str, new_text: str) -> str:
     """``new_text`` followed by every section of :data:`SECTIONS` found in ``old_text``."""
     kept = [s for s in (find_section(old_text, name) for name in SECTIONS) if s]
     return "\n\n".join([new_text.rstrip("\n"), *kept]) + "\n"
+
+
+def write_head(path: Path, text: str) -> None:
+    """Replace the part of the file at ``path`` above its sections (bench_param.py's) with
+    ``text``, keeping every section of :data:`SECTIONS`, atomically."""
+    old = path.read_text(encoding="utf-8") if path.exists() else ""
+    write_text(path, carry_sections(old, text))
+    log(f"wrote the head of {path}")
 
 
 def write_text(path: Path, text: str) -> None:

@@ -1,7 +1,7 @@
 """A car-like shell onto the car domain, then with the side windows' upper edges as landmarks
 (paper 7.3 figure "fixedBdy car" and 7.4 figure "ldmkMatch car").
 
-The shell is built analytically (:func:`car_shell`): a roof, bonnet and boot on top and two
+The shell is built analytically (:func:`pcgeom.synthetic.car_shell`): a roof, bonnet and boot on top and two
 sides hanging from them, open underneath, with the wheel arches cut out of the sides' lower
 edges. It is the image of pcgeom's ``car`` domain under a bending that is not conformal: in
 the cabin the sides are tall (0.4), on the bonnet and boot short (0.1-0.2), and the roof is
@@ -40,79 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import numpy as np  # noqa: E402
 
 import _common  # noqa: E402
-
-ROOF = 0.32
-"""|y| of the window's upper edge (the roof's edge) in the construction."""
-WINDOW = (-0.55, 0.45)
-"""x range of the side windows in the construction."""
-EDGE_POINTS = 67
-"""Points on each window's upper edge (paper: 134 in all)."""
-TARGET_LINES = [[[-0.5, -0.25], [0.5, -0.25]], [[-0.5, 0.25], [0.5, 0.25]]]
-"""The paper's target lines [-0.5, 0.5] x {-0.25, 0.25}."""
-TARGET_SPACING = 1.0 / 199
-"""200 points on each line of length 1, 400 in all (paper: 400)."""
-
-
-def _step(x, a, b, width):
-    """About 1 on [a, b], 0 outside, smooth over ``width``."""
-    return 0.5 * (np.tanh((x - a) / width) - np.tanh((x - b) / width))
-
-
-def lift(P: np.ndarray) -> np.ndarray:
-    """The shell point of each domain point ``(x, y)``.
-
-    Roof band ``|y| <= ROOF``: ``(x, 0.9 y, z_top(x) + 0.05 (1 - (y / ROOF)^2))``; sides
-    ``|y| > ROOF``, with ``s = (|y| - ROOF) / (0.7 - ROOF)`` from the roof's edge (0) to the
-    bottom (1): ``(x, sign(y) (0.9 ROOF + 0.12 s), z_top(x) (1 - s))``. ``z_top`` is 0.08
-    plus 0.12 over the body (bonnet to boot) plus 0.22 over the cabin.
-    """
-    x, y = P[:, 0], P[:, 1]
-    t, sg = np.abs(y), np.where(y < 0, -1.0, 1.0)
-    z_top = 0.08 + 0.12 * _step(x, -0.95, 0.9, 0.12) + 0.22 * _step(x, *WINDOW, 0.08)
-    s = np.clip((t - ROOF) / (0.7 - ROOF), 0.0, None)
-    roof = t <= ROOF
-    Y = np.where(roof, 0.9 * y, sg * (0.9 * ROOF + 0.12 * s))
-    Z = np.where(roof, z_top + 0.05 * (1 - (y / ROOF) ** 2), z_top * (1 - s))
-    return np.column_stack([x, Y, Z])
-
-
-def car_shell(n: int, seed: int = 0):
-    """The shell: points, triangles, and the rows of the window edges.
-
-    The cloud is the lift of ``n`` area-uniform samples of the car domain, of its boundary
-    (so the triangulation has a clean edge) and of the window edges (``EDGE_POINTS`` per
-    side, evenly spaced); samples closer than half a spacing to a boundary or edge point are
-    dropped.
-    The triangles are the parameter-space Delaunay triangles whose centroid is in the domain.
-
-    Returns
-    -------
-    V : (N, 3) float64
-    F : (M, 3) int64
-    edges : (2 * EDGE_POINTS,) int64 rows of V on the window edges
-    """
-    from scipy.spatial import Delaunay, cKDTree
-
-    from pcgeom import get_domain
-
-    car = get_domain("car")
-    inner = car.sample(n, seed=seed)
-    spacing = np.sqrt(car.area / n)
-    border = car.boundary(int(np.ceil(car.geometry.length / spacing)))
-    ex = np.linspace(*WINDOW, EDGE_POINTS)
-    edge = np.vstack([np.column_stack([ex, np.full_like(ex, -ROOF)]),
-                      np.column_stack([ex, np.full_like(ex, ROOF)])])
-    near, _ = cKDTree(np.vstack([edge, border])).query(inner)
-    inner = inner[near > 0.5 * spacing]
-    P = np.vstack([inner, border, edge])
-    F = Delaunay(P).simplices.astype(np.int64)
-    F = F[car.contains(P[F].mean(axis=1))]
-    # Orient every triangle counter-clockwise in the parameter plane.
-    e1, e2 = P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]
-    flip = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0
-    F[flip] = F[flip][:, [0, 2, 1]]
-    edges = np.arange(len(P) - len(edge), len(P), dtype=np.int64)
-    return lift(P), F, edges
+from pcgeom.synthetic import CAR_TARGET_LINES, CAR_TARGET_SPACING, car_shell  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -129,9 +57,11 @@ def main(argv=None) -> int:
     from pcgeom.metrics import hausdorff
 
     V, F, edges = car_shell(args.points or (1500 if args.quick else 2500), seed=args.seed)
-    targets = np.vstack([sample_polyline(line, TARGET_SPACING) for line in TARGET_LINES])
+    targets = np.vstack([sample_polyline(line, CAR_TARGET_SPACING)
+                         for line in CAR_TARGET_LINES])
     write_ply_atomic(out / "car_shell.ply", V, F)
-    marks = [{"indices": edges.tolist(), "polylines": TARGET_LINES, "spacing": TARGET_SPACING}]
+    marks = [{"indices": edges.tolist(), "polylines": CAR_TARGET_LINES,
+              "spacing": CAR_TARGET_SPACING}]
     (out / "car_landmarks.json").write_text(json.dumps(marks) + "\n")
     car = pcgeom.get_domain("car")
     config = (_common.tiny_config("fast", refine_steps=200) if args.quick

@@ -1,6 +1,7 @@
 """Synthetic real-scan stand-ins with ground truth: a holey, noisy height field with strays,
-a simulated single-view range scan of a triangle mesh, and a pleated sheet whose folds bring
-its sheets within a few point spacings of each other.
+a simulated single-view range scan of a triangle mesh, a pleated sheet whose folds bring
+its sheets within a few point spacings of each other, and the car shell (:func:`car_shell`,
+the paper's 7.3 and 7.4 test of the ``car`` domain).
 
 Both generators are deterministic for a given ``seed`` and return a small frozen dataclass
 of NumPy arrays: the points as a scanner would deliver them (noise and strays included, one
@@ -19,19 +20,17 @@ import dataclasses
 
 import numpy as np
 
+from .examples import BUMPS, bump_height
 from .mesh import mean_edge, signed_areas
 
 __all__ = ["HeightFieldScan", "RangeScan", "PleatedSheet", "holey_heightfield", "range_scan",
-           "pleated_sheet", "HEIGHT_BUMPS"]
+           "pleated_sheet", "HEIGHT_BUMPS", "car_shell", "car_lift", "CAR_ROOF", "CAR_WINDOW",
+           "CAR_EDGE_POINTS", "CAR_TARGET_LINES", "CAR_TARGET_SPACING"]
 
-HEIGHT_BUMPS = (
-    (0.45, -0.45, -0.35, 0.35),
-    (0.35, 0.45, -0.30, 0.30),
-    (0.40, 0.05, 0.45, 0.40),
-    (-0.20, -0.55, 0.55, 0.30),
-)
+HEIGHT_BUMPS = BUMPS["holey"]
 """(amplitude, centre x, centre y, width) of the Gaussian bumps of :func:`holey_heightfield`'s
-surface ``z = sum_k a_k exp(-|p - c_k|^2 / w_k^2)`` over ``[-1, 1]^2``."""
+surface ``z = sum_k a_k exp(-|p - c_k|^2 / w_k^2)`` over ``[-1, 1]^2``
+(:data:`pcgeom.examples.BUMPS`, ``"holey"``)."""
 
 # R2 low-discrepancy sequence (Roberts 2018): the additive recurrence by the inverse powers of
 # the plastic number. Its prefixes are area-uniform without a random sample's clumps, so the
@@ -138,14 +137,8 @@ def _r2_square(n: int, rng: np.random.Generator) -> np.ndarray:
 
 def _height(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The height field of :data:`HEIGHT_BUMPS` at ``xy (n, 2)`` and its gradient ``(n, 2)``."""
-    z = np.zeros(len(xy))
-    grad = np.zeros((len(xy), 2))
-    for a, cx, cy, w in HEIGHT_BUMPS:
-        d = xy - np.array([cx, cy])
-        g = a * np.exp(-(d**2).sum(axis=1) / w**2)
-        z += g
-        grad += (-2.0 / w**2) * g[:, None] * d
-    return z, grad
+    z, zx, zy = bump_height(xy[:, 0], xy[:, 1], HEIGHT_BUMPS)
+    return z, np.column_stack([zx, zy])
 
 
 def _place_holes(count: int, radii: tuple[float, float], gap: float,
@@ -658,3 +651,83 @@ def pleated_sheet(n: int = 6000, folds: int = 4, gap: float = 2.0, *, width: flo
     normals = np.column_stack([nxz[:, 0], np.zeros(len(uv)), nxz[:, 1]])
     return PleatedSheet(points=points, normals=normals, faces=F, uv_true=uv, spacing=spacing,
                         gap=gap, sheet=sheet)
+
+
+# --------------------------------------------------------------------------- the car shell
+
+CAR_ROOF = 0.32
+"""|y| of the side windows' upper edge (the roof's edge) in the car shell's construction."""
+CAR_WINDOW = (-0.55, 0.45)
+"""x range of the side windows in the construction."""
+CAR_EDGE_POINTS = 67
+"""Points on each window's upper edge (the paper: 134 in all)."""
+CAR_TARGET_LINES = [[[-0.5, -0.25], [0.5, -0.25]], [[-0.5, 0.25], [0.5, 0.25]]]
+"""The paper's landmark target lines ``[-0.5, 0.5] x {-0.25, 0.25}`` in the car domain."""
+CAR_TARGET_SPACING = 1.0 / 199
+"""200 points on each target line of length 1, 400 in all (the paper: 400)."""
+
+
+def _step(x, a, b, width):
+    """About 1 on [a, b], 0 outside, smooth over ``width``."""
+    return 0.5 * (np.tanh((x - a) / width) - np.tanh((x - b) / width))
+
+
+def car_lift(P: np.ndarray) -> np.ndarray:
+    """The car shell's point of each point ``(x, y)`` (K, 2) of the ``car`` domain, (K, 3).
+
+    Roof band ``|y| <= CAR_ROOF``: ``(x, 0.9 y, z_top(x) + 0.05 (1 - (y / CAR_ROOF)^2))``;
+    sides ``|y| > CAR_ROOF``, with ``s = (|y| - CAR_ROOF) / (0.7 - CAR_ROOF)`` from the roof's
+    edge (0) to the bottom (1): ``(x, sign(y) (0.9 CAR_ROOF + 0.12 s), z_top(x) (1 - s))``.
+    ``z_top`` is 0.08 plus 0.12 over the body (bonnet to boot) plus 0.22 over the cabin.
+    The bending is not conformal: the sides are tall (0.4) in the cabin and short (0.1-0.2)
+    on the bonnet and boot, and the roof is 0.58 wide where the domain's middle band is 0.5.
+    """
+    x, y = P[:, 0], P[:, 1]
+    t, sg = np.abs(y), np.where(y < 0, -1.0, 1.0)
+    z_top = 0.08 + 0.12 * _step(x, -0.95, 0.9, 0.12) + 0.22 * _step(x, *CAR_WINDOW, 0.08)
+    s = np.clip((t - CAR_ROOF) / (0.7 - CAR_ROOF), 0.0, None)
+    roof = t <= CAR_ROOF
+    Y = np.where(roof, 0.9 * y, sg * (0.9 * CAR_ROOF + 0.12 * s))
+    Z = np.where(roof, z_top + 0.05 * (1 - (y / CAR_ROOF) ** 2), z_top * (1 - s))
+    return np.column_stack([x, Y, Z])
+
+
+def car_shell(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A car-like shell: a roof, bonnet and boot on top and two sides hanging from them, open
+    underneath, with the wheel arches cut out of the sides' lower edges; the image of the
+    ``car`` domain under :func:`car_lift`. The window edges, the curves ``|y| = CAR_ROOF,
+    x in CAR_WINDOW`` of the construction, do not fall on the domain's window lines
+    (:data:`CAR_TARGET_LINES`) by themselves: the paper's landmark test.
+
+    The cloud is the lift of ``n`` area-uniform samples of the car domain, of its boundary
+    (so the triangulation has a clean edge) and of the window edges (:data:`CAR_EDGE_POINTS`
+    per side, evenly spaced); samples closer than half a spacing to a boundary or edge point
+    are dropped. The triangles are the parameter-space Delaunay triangles whose centroid is in
+    the domain, counter-clockwise there.
+
+    Returns
+    -------
+    V : (N, 3) float64
+    F : (M, 3) int64
+    edges : (2 * CAR_EDGE_POINTS,) int64 rows of V on the window edges
+    """
+    from scipy.spatial import Delaunay, cKDTree
+
+    from .domains import get_domain
+
+    car = get_domain("car")
+    inner = car.sample(n, seed=seed)
+    spacing = np.sqrt(car.area / n)
+    border = car.boundary(int(np.ceil(car.geometry.length / spacing)))
+    ex = np.linspace(*CAR_WINDOW, CAR_EDGE_POINTS)
+    edge = np.vstack([np.column_stack([ex, np.full_like(ex, -CAR_ROOF)]),
+                      np.column_stack([ex, np.full_like(ex, CAR_ROOF)])])
+    near, _ = cKDTree(np.vstack([edge, border])).query(inner)
+    inner = inner[near > 0.5 * spacing]
+    P = np.vstack([inner, border, edge])
+    F = Delaunay(P).simplices.astype(np.int64)
+    F = F[car.contains(P[F].mean(axis=1))]
+    flip = signed_areas(P, F) < 0
+    F[flip] = F[flip][:, [0, 2, 1]]
+    edges = np.arange(len(P) - len(edge), len(P), dtype=np.int64)
+    return car_lift(P), F, edges

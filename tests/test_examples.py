@@ -90,12 +90,12 @@ def test_face_disk_records_every_stage(tmp_path):
     assert harmonic["flipped"] <= 1  # the harmonic map of a disk mesh folds nothing (1 sliver)
 
 
-def test_face_smile_landing_judges_holes():
-    smile_module = _load("face_smile")
+def test_hole_landing_judges_holes():
     from pcgeom import get_domain
+    from pcgeom.apps.evaluate import domain_holes, hole_landing
     from pcgeom.io.landmarks import sample_polyline
 
-    targets = smile_module.domain_holes(get_domain("smile"))
+    targets = domain_holes(get_domain("smile"))
     assert sorted(t["name"] for t in targets) == ["left eye", "mouth", "right eye"]
     # A map that puts each "cloud hole" loop just outside a domain hole (scaled 1.1 about
     # its centre) lands every hole; one loop moved to the middle of the face does not.
@@ -103,13 +103,13 @@ def test_face_smile_landing_judges_holes():
     loops = [c + 1.1 * (r - r.mean(axis=0)) for r, c in ((r, r.mean(axis=0)) for r in rings)]
     U = np.vstack(loops)
     idx = np.split(np.arange(len(U)), np.cumsum([len(r) for r in rings])[:-1])
-    good = smile_module.landing(U, idx, targets)
+    good = hole_landing(U, idx, targets)
     assert good["all_land"]
     assert [h["nearest"] for h in good["holes"]] == [t["name"] for t in targets]
     assert all(h["hausdorff"] < 0.06 for h in good["holes"])
     moved = U.copy()
     moved[idx[0]] = 0.1 * (U[idx[0]] - U[idx[0]].mean(axis=0)) + [0.0, 0.05]
-    bad = smile_module.landing(moved, idx, targets)
+    bad = hole_landing(moved, idx, targets)
     assert not bad["all_land"] and not bad["holes"][0]["lands"]
     assert bad["holes"][0]["encloses"] == []
 
@@ -134,19 +134,20 @@ def test_face_smile_runs_both_ways(tmp_path):
 
 
 def test_car_shell_is_an_open_sheet_with_its_window_edges():
-    car = _load("car")
     import igl
 
+    from pcgeom import synthetic as car
+
     V, F, edges = car.car_shell(1500)
-    assert len(edges) == 2 * car.EDGE_POINTS == 134
+    assert len(edges) == 2 * car.CAR_EDGE_POINTS == 134
     assert len(igl.boundary_loop_all(F)) == 1  # one sheet, open underneath
     gaps = np.sort(np.linalg.norm(V[:, None] - V[None, :], axis=-1), axis=1)[:, 1]
     assert gaps.min() > 1e-3  # the lift is one to one
     E = V[edges]
     # The edges run along the car (x), at the roof's edge, one per side.
-    assert np.allclose(np.abs(E[:, 1]), 0.9 * car.ROOF)
-    assert E[:, 0].min() == pytest.approx(car.WINDOW[0])
-    assert E[:, 0].max() == pytest.approx(car.WINDOW[1])
+    assert np.allclose(np.abs(E[:, 1]), 0.9 * car.CAR_ROOF)
+    assert E[:, 0].min() == pytest.approx(car.CAR_WINDOW[0])
+    assert E[:, 0].max() == pytest.approx(car.CAR_WINDOW[1])
 
 
 def test_car_landmarks_pull_the_window_edges_onto_the_lines(tmp_path):

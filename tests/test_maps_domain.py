@@ -274,9 +274,6 @@ def test_landmarks_pull_the_conformal_car_map_without_a_fold():
     turned and moved by a disk automorphism to fit the landmarks, then pulled onto them under
     the barrier: the window edges come closer to their targets and no triangle of the cleaned
     local mesh turns over."""
-    import sys
-    from pathlib import Path
-
     from pcgeom.config import get_preset
     from pcgeom.domains import get_domain
     from pcgeom.io.landmarks import sample_polyline
@@ -287,11 +284,11 @@ def test_landmarks_pull_the_conformal_car_map_without_a_fold():
     from pcgeom.maps.riemann import riemann_onto
     from pcgeom.metrics import hausdorff
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
-    from car import TARGET_LINES, TARGET_SPACING, car_shell
+    from pcgeom.synthetic import CAR_TARGET_LINES, CAR_TARGET_SPACING, car_shell
 
     V, _, edges = car_shell(1500, seed=0)
-    targets = np.vstack([sample_polyline(line, TARGET_SPACING) for line in TARGET_LINES])
+    targets = np.vstack([sample_polyline(line, CAR_TARGET_SPACING)
+                         for line in CAR_TARGET_LINES])
     X, _, _ = normalize(V)
     uv, mesh, _, _ = free_start(X, None, get_preset("fast"), progress=False)
     disk = conformal_disk(X, mesh, uv)

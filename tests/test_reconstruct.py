@@ -19,7 +19,7 @@ from pcgeom.apps.boundary import BoundaryLoops, detect_boundary
 from pcgeom.apps.reconstruct import (lift, map_delaunay, mesh_report, reconstruct_on_domain,
                                      reconstruct_surface)
 from pcgeom.cloud import fingerprint
-from pcgeom.examples import _BUMPS, peaks_surface
+from pcgeom.examples import BUMPS, peaks_surface
 from pcgeom.io import read_points
 
 from tests.helpers import assert_cli_fails, tiny_preset
@@ -154,7 +154,7 @@ def test_peaks_height_field_is_close_to_the_true_surface():
     _assert_clean(report, 1)
     assert 1600 <= report["n_vertices"] <= 2400
     z = np.zeros(len(V))
-    for a, cx, cy, w in _BUMPS["peaks3"]:
+    for a, cx, cy, w in BUMPS["peaks3"]:
         z += a * np.exp(-((V[:, 0] - cx) ** 2 + (V[:, 1] - cy) ** 2) / w**2)
     diag = np.linalg.norm(P.max(axis=0) - P.min(axis=0))
     # Measured: 0.0023 of the diagonal (piecewise-linear interpolation of a 40 x 40 grid).

@@ -4,7 +4,9 @@ Wraps :mod:`pcgeom.metrics` (one implementation of each measure) into one plain 
 the same for a fresh result and for a map file read back with ``ParamResult.load``.
 :func:`evaluate_map` adds the classical baselines on the same reference mesh (libigl's LSCM
 and harmonic disk map, timed) and :func:`plot_evaluation` draws the figures of
-``pcgeom evaluate --plot DIR``.
+``pcgeom evaluate --plot DIR``. Onto a domain with holes, :func:`hole_landing` tells where each
+hole of the surface (:func:`mesh_holes`) lands among the domain's (:func:`domain_holes`), and
+:func:`hole_landmarks` pairs them as landmarks.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ from .baselines import BASELINES, SPHERE_BASELINES
 __all__ = ["map_report", "angle_figures", "factor_figures", "landmark_hausdorff",
            "EVALUATION_BASELINES", "SPHERE_EVALUATION_BASELINES",
            "BaselineRun", "run_baselines", "Evaluation", "evaluate_map",
-           "vertex_angle_distortion", "PLOT_FILES", "plot_evaluation", "plot_angle_histograms"]
+           "vertex_angle_distortion", "PLOT_FILES", "plot_evaluation", "plot_angle_histograms",
+           "mesh_holes", "domain_holes", "hole_landing", "hole_landmarks", "HOLE_TARGET_SPACING"]
 
 ANGLE_KEYS = ("mean_abs_angle_rad", "median_abs_angle_rad", "p95_abs_angle_rad",
               "max_abs_angle_rad", "flipped", "n_faces", "flipped_percent", "flipped_where")
@@ -367,3 +370,119 @@ def plot_angle_histograms(evaluation: Evaluation, path, title: str | None = None
 
     return plot_angle_histogram(evaluation.angles.per_corner, path, title=title,
                                 others=_baseline_histograms(evaluation))
+
+
+# --------------------------------------------------------------------------- holes
+
+HOLE_TARGET_SPACING = 0.01
+"""Spacing of :func:`hole_landmarks`' targets along each domain hole's boundary."""
+
+
+def mesh_holes(V, F) -> list[np.ndarray]:
+    """The holes of a mesh: its boundary loops but the longest (the outline), longest first.
+
+    Returns
+    -------
+    list of (k,) int64 vertex indices, each in loop order
+    """
+    import igl
+
+    loops = [np.asarray(loop, dtype=np.int64)
+             for loop in igl.boundary_loop_all(np.ascontiguousarray(F))]
+
+    def length(loop):
+        P = V[loop]
+        return float(np.linalg.norm(P - np.roll(P, -1, axis=0), axis=1).sum())
+
+    loops.sort(key=length, reverse=True)
+    return loops[1:]
+
+
+def domain_holes(domain) -> list[dict]:
+    """The domain's holes: name (``left eye``, ``right eye``, ``mouth`` for the smile, else
+    ``hole k``), closed ring (k, 2) and a point inside each."""
+    import shapely
+
+    polygons = getattr(domain.geometry, "geoms", [domain.geometry])
+    rings = [np.asarray(r.coords) for p in polygons for r in p.interiors]
+    holes = []
+    for k, ring in enumerate(rings):
+        poly = shapely.Polygon(ring)
+        inside = np.asarray(poly.representative_point().coords[0])
+        name = f"hole {k}"
+        if domain.name == "smile":
+            names = {"left eye": domain.EYE_CENTERS[0], "right eye": domain.EYE_CENTERS[1],
+                     "mouth": domain.MOUTH_CENTER}
+            c = np.asarray(poly.centroid.coords[0])
+            name = min(names, key=lambda n: np.linalg.norm(c - np.asarray(names[n])))
+        holes.append({"name": name, "ring": ring, "inside": inside})
+    return holes
+
+
+def hole_landing(U, holes_idx, targets) -> dict:
+    """Where each hole of the surface (:func:`mesh_holes`) lands under the map ``U``.
+
+    Parameters
+    ----------
+    U : (N, 2) map
+    holes_idx : list of (k,) loop vertex indices (the cloud's holes)
+    targets : list of dicts from :func:`domain_holes`
+
+    Returns
+    -------
+    dict
+        ``holes``: per cloud hole, the domain hole its loop is nearest to (mean distance of its
+        mapped points to that hole's boundary), the names of the domain holes its mapped loop
+        encloses, the Hausdorff distance to the nearest hole's boundary and ``lands`` (it
+        encloses exactly that hole); ``all_land``: every cloud hole lands and no two on the
+        same domain hole.
+    """
+    import shapely
+
+    from ..io.landmarks import sample_polyline
+    from ..metrics import hausdorff
+
+    rings = [sample_polyline(t["ring"], 0.005) for t in targets]
+    rows = []
+    for k, loop in enumerate(holes_idx):
+        L = U[loop]  # (k, 2) mapped loop, in loop order
+        poly = shapely.Polygon(L).buffer(0)  # a folded loop becomes valid (its outline)
+        encloses = [t["name"] for t in targets
+                    if poly.contains(shapely.Point(*t["inside"]))]
+        lines = [shapely.LineString(t["ring"]) for t in targets]
+        mean_d = [float(np.mean(shapely.distance(shapely.points(L), line))) for line in lines]
+        j = int(np.argmin(mean_d))
+        rows.append({
+            "cloud_hole": k,
+            "n_points": int(len(loop)),
+            "nearest": targets[j]["name"],
+            "mean_distance": mean_d[j],
+            "hausdorff": hausdorff(L, rings[j]),
+            "encloses": encloses,
+            "lands": encloses == [targets[j]["name"]],
+        })
+    names = [r["nearest"] for r in rows]
+    all_land = all(r["lands"] for r in rows) and len(set(names)) == len(names)
+    return {"holes": rows, "all_land": bool(all_land)}
+
+
+def hole_landmarks(V, U, holes_idx, targets) -> tuple[list, list[str]]:
+    """Landmark pairs: each cloud hole's loop points -> its domain hole's boundary.
+
+    The longest cloud hole (the first) goes to the largest domain hole (the mouth); the others
+    to the others in the order of their mapped centroids' x under ``U``.
+    """
+    import shapely
+
+    from ..io.landmarks import sample_polyline
+
+    by_area = sorted(range(len(targets)), key=lambda j: -shapely.Polygon(targets[j]["ring"]).area)
+    big, rest = by_area[0], sorted(by_area[1:], key=lambda j: targets[j]["inside"][0])
+    others = sorted(range(1, len(holes_idx)), key=lambda k: U[holes_idx[k]][:, 0].mean())
+    assign = {0: big, **dict(zip(others, rest))}
+    pairs, names = [], []
+    for k, loop in enumerate(holes_idx):
+        t = targets[assign[k]]
+        pairs.append((V[loop], sample_polyline(t["ring"], HOLE_TARGET_SPACING)))
+        names.append(t["name"])
+    return pairs, names
