@@ -294,16 +294,17 @@ def test_landmarks_pull_the_conformal_car_map_without_a_fold():
     disk = conformal_disk(X, mesh, uv)
     car = get_domain("car")
     plain, _ = riemann_onto(X, mesh.faces, disk, car)
-    turned, info = riemann_onto(X, mesh.faces, disk, car, landmarks=[(edges, targets)])
-    assert len(info["automorphism"]) == 2
     U, info = landmarks_onto(X, mesh, disk, car, [(edges, targets)])
-    before = [hausdorff(W[edges], targets) for W in (plain, turned)]
+    # The pull started from the conformal map turned and moved by a disk automorphism
+    # (riemann_onto with the landmarks: its record is the pull's).
+    assert len(info["automorphism"]) == 2
+    before = hausdorff(plain[edges], targets)
     after = hausdorff(U[edges], targets)
     assert info["injective"]["flipped"] == 0
     assert mesh_flips(X, mesh, U, info["dropped_faces"])["count"] == 0
-    # Measured: 0.301 plain, 0.308 turned, 0.0113 pulled along the lines by arc length (0.034
-    # with nearest-target pairs).
-    assert after < 0.5 * min(before) and after < 0.02, (before, after)
+    # Measured: 0.301 plain (0.308 turned), 0.0113 pulled along the lines by arc length
+    # (0.034 with nearest-target pairs).
+    assert after < 0.5 * before and after < 0.02, (before, after)
 
 
 def test_a_domain_hole_without_a_hole_of_the_cloud_gets_the_tearing_refinement():

@@ -76,6 +76,18 @@ def test_the_square_s_riemann_map_is_symmetric_and_lands_corners_where_asked():
     assert (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] > 0).all()
 
 
+def test_a_domain_s_riemann_map_is_made_once_and_kept_read_only():
+    """domain_disk keeps its last few results: the same domain, n and seed give the same
+    object (its arrays read-only, so that no caller can change what the next one gets);
+    another n or another domain of the same name are made anew."""
+    dd = domain_disk(get_domain("rect:2"), n=1500)
+    assert domain_disk(get_domain("rect:2"), n=1500) is dd
+    assert domain_disk(get_domain("rect:2"), n=1600) is not dd
+    assert domain_disk(get_domain("rect:3"), n=1500) is not dd
+    with pytest.raises(ValueError, match="read-only"):
+        dd.D[0, 0] = 0.0
+
+
 def test_domains_with_holes_are_not_simply_connected():
     assert simply_connected(get_domain("car")) and simply_connected(get_domain("square"))
     assert not simply_connected(get_domain("annulus")) and not simply_connected(get_domain("free"))
@@ -104,7 +116,8 @@ def test_three_peaks_onto_the_square_fold_nothing_and_fill_the_square():
     assert report.flipped <= 0.0005 * len(F)
     assert surface_hausdorff(result.uv, F, get_domain("square")) <= 0.01
     assert result.history[0]["method"] == "riemann" and len(result.history) == 1
-    harmonic = parametrize(V, "square", progress=False,
+    # The harmonic layout when asked for (a smaller patch: only the method is checked here).
+    harmonic = parametrize(peaks_surface("peaks3", n_side=24)[0], "square", progress=False,
                            config=_with_method(get_preset("fast"), "harmonic"))
     assert harmonic.history[0]["method"] == "harmonic"
 
