@@ -1,6 +1,8 @@
 """Surface reconstruction from a map (the paper's section 8, remeshing): a free-boundary
-map, meshed inside its detected loops (:func:`reconstruct_surface`), or a map onto a bounded
-domain, meshed on the domain itself (:func:`reconstruct_on_domain`).
+map, meshed inside its detected loops (:func:`reconstruct_surface`), a map onto a bounded
+domain, meshed on the domain itself (:func:`reconstruct_on_domain`), or a map onto the sphere,
+the sphere meshed and lifted into a closed genus-0 mesh (:func:`reconstruct_on_sphere`,
+:mod:`.sphere`).
 
 1. Mesh the region of the map inside the detected loops (the outer loop minus the holes)
    with gmsh, every loop point a mesh vertex, so the mesh's boundary is the detected one
