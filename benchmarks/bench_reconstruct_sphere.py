@@ -75,7 +75,7 @@ def sphere_map(case, maps: str, work: Path) -> dict:
             return {"error": "not star-shaped: needs --maps pcgeom"}
         D = case["X"] - case["centre"]
         return {"uv": D / np.linalg.norm(D, axis=1, keepdims=True), "faces": None,
-                "lambda_inv": None, "seconds": 0.0, "source": "radial"}
+                "lambda_inv": None, "seconds": 0.0}
     from pcgeom.io import ParamResult, write_ply_atomic
 
     src = work / f"{case['name'].replace(' ', '_')}.ply"
@@ -85,9 +85,8 @@ def sphere_map(case, maps: str, work: Path) -> dict:
     if run["error"]:
         return {"error": run["error"]}
     result = ParamResult.load(out, n_points=len(case["X"]))
-    return {"uv": result.uv, "faces": result.mesh_faces,
-            "lambda_inv": result.lambda_inv, "seconds": run["wall_s"], "source": "pcgeom param --domain "
-            "sphere (fast)", "X": result.fitted}  # fitted: None unless denoised
+    return {"uv": result.uv, "faces": result.mesh_faces, "lambda_inv": result.lambda_inv,
+            "seconds": run["wall_s"], "X": result.fitted}  # fitted: None unless denoised
 
 
 def ours(case, smap, size: str, target: int, interpolation: str = "phong") -> dict:
@@ -119,22 +118,12 @@ def poisson(case, depth: int, estimate: bool) -> dict:
                       + ("estimated" if estimate else "from the file")}
 
 
-def _samples(V, F, n: int, seed: int) -> np.ndarray:
-    """The vertices and ``n`` area-uniform points of the mesh."""
-    import trimesh
-
-    points, _ = trimesh.sample.sample_surface(trimesh.Trimesh(V, F, process=False), n,
-                                              seed=seed)
-    return np.vstack([V, points])
-
-
-def _distances(P, V, F) -> tuple[np.ndarray, np.ndarray]:
-    """Distance of each point to the mesh and the nearest triangle."""
+def _nearest_faces(P, V, F) -> np.ndarray:
+    """The triangle of ``(V, F)`` nearest to each point (libigl's AABB tree). (K,)"""
     import igl
 
-    d2, face, _ = igl.point_mesh_squared_distance(
-        np.ascontiguousarray(P), np.ascontiguousarray(V), np.ascontiguousarray(F, dtype=np.int64))
-    return np.sqrt(np.maximum(d2, 0.0)), face
+    return igl.point_mesh_squared_distance(np.ascontiguousarray(P), np.ascontiguousarray(V),
+                                           np.ascontiguousarray(F, dtype=np.int64))[1]
 
 
 def _normals(V, F) -> np.ndarray:
@@ -148,10 +137,10 @@ def score(mesh: dict, case, samples: int) -> dict:
 
     V, F, TV, TF = mesh["V"], mesh["F"], case["TV"], case["TF"]
     diag = float(np.linalg.norm(np.ptp(case["X"], axis=0)))
-    to_true, _ = _distances(_samples(V, F, samples, 0), TV, TF)
-    from_true, _ = _distances(_samples(TV, TF, samples, 1), V, F)
-    centres = V[F].mean(axis=1)
-    _, nearest = _distances(centres, TV, TF)
+    rng = np.random.default_rng(0)
+    to_true = H.distances(H._area_sample(V, F, samples, rng), TV, TF)
+    from_true = H.distances(H._area_sample(TV, TF, samples, rng), V, F)
+    nearest = _nearest_faces(V[F].mean(axis=1), TV, TF)
     turned = int((np.einsum("ij,ij->i", _normals(V, F), _normals(TV, TF)[nearest]) < 0).sum())
     L = np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2)  # (M, 3): side k+2 opposite k
     a, b, c = L[:, 0], L[:, 1], L[:, 2]

@@ -405,16 +405,17 @@ def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
         Only with ``return_uv``.
     report : dict
         :func:`mesh_report` and :func:`closed_checks`, plus ``domain`` ("sphere"),
-        ``triangulation`` ("mesh_faces" or "convex_hull"), ``n_searched`` (vertices located
-        by the search over all triangles), ``interpolation``, ``orientation_reversed`` (the map turns the
-        surface inside out, so the triangles were turned), ``size``, ``target_vertices``.
+        ``triangulation`` (:func:`sphere_triangulation`'s source), ``n_searched`` (vertices
+        located by the search over all triangles), ``interpolation``, ``orientation_reversed``
+        (the map turns the surface inside out, so the triangles were turned), ``size``,
+        ``target_vertices``.
 
     Raises
     ------
     InputError
         Bad shapes or a map whose rows are not unit vectors (a planar map), an unknown
-        ``size`` or ``interpolation``, a triangulation that overlaps (:func:`sphere_triangulation`), or a result
-        that is not a closed genus-0 mesh.
+        ``size`` or ``interpolation``, a triangulation that overlaps
+        (:func:`sphere_triangulation`), or a result that is not a closed genus-0 mesh.
     ImportError
         gmsh is not installed.
     """
