@@ -343,3 +343,19 @@ def test_killed_worker_resumes_and_every_map_is_written_once(tmp_path):
     assert attempts.read_text().count("attempt") == 3
     assert not (out / "flaky_uv.npz").exists()
     assert sorted(r["name"] for r in _summary(out)) == sorted([*(p.stem for p in scans), "flaky"])
+
+
+def test_batch_reconstructs_in_worker_threads(tmp_path, capsys, monkeypatch, tiny):
+    """gmsh meshes inside a Dask worker's thread (issue 39: it installed a SIGINT handler
+    there, "signal only works in main thread"); one worker process with two threads meshes
+    two scans at once, serialised by the mesher's lock."""
+    monkeypatch.chdir(tmp_path)
+    _write_scans(tmp_path / "scans", n=2, broken=False)
+    argv = ["batch", "scans/*", "--out", "maps", "--workers", "1", "--threads-per-worker", "2",
+            "--reconstruct", "--target-vertices", "150", "--json"]
+    assert cli.main(argv) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert (report["n_ok"], report["n_error"]) == (2, 0)
+    for k in range(2):
+        mesh = read_points(Path("maps") / f"scan{k}_mesh.ply")
+        assert 75 <= len(mesh.points) <= 300

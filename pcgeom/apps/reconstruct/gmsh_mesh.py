@@ -16,6 +16,8 @@ Every triangle is counter-clockwise in the map.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from ...errors import InputError, _one_line
@@ -23,6 +25,8 @@ from ...mesh import shoelace, signed_areas
 from ..boundary import BoundaryLoops
 from ..planar import validate_map
 from .polygons import _polygons, _resample, _split_shared
+
+_GMSH_LOCK = threading.Lock()  # one gmsh session at a time in a process
 
 GMSH_INSTALL = "pip install 'gmsh>=4.11'"
 GMSH_SYSTEM_LIBS = "libgl1 libglu1-mesa libxcursor1 libxft2 libxinerama1"
@@ -61,27 +65,38 @@ def _gmsh_triangles(build, size: float, relative=None, *, model: str, empty: str
     triangles (M, 3) int64 as gmsh made them; :class:`InputError` ``empty`` when it made none.
     """
     gmsh = require_gmsh()
-    gmsh.initialize(readConfigFiles=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add(model)
-        build(gmsh)
-        if relative is None:
-            gmsh.option.setNumber("Mesh.MeshSizeMin", size)
-            gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        else:
-            gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-            gmsh.model.mesh.setSizeCallback(
-                lambda dim, tag, x, y, z, lc: size * float(relative(x, y, z)))
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        # The size inside must not be interpolated from the boundary segments' lengths (that
-        # would tie the vertex count to how many times each segment is split).
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-        gmsh.model.mesh.generate(2)
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        types, _, node_tags = gmsh.model.mesh.getElements(2)
-    finally:
-        gmsh.finalize()
+    # gmsh is one global session per process: threads of one process (a Dask worker's) take
+    # turns. Its Python API installs a SIGINT handler, which only the main thread may do
+    # ("signal only works in main thread"): elsewhere it is initialised without one.
+    main = threading.current_thread() is threading.main_thread()
+    with _GMSH_LOCK:
+        gmsh.initialize(readConfigFiles=False, interruptible=main)
+        try:
+            return _meshed_session(gmsh, build, size, relative, model=model, empty=empty)
+        finally:
+            gmsh.finalize()
+
+
+def _meshed_session(gmsh, build, size: float, relative, *, model: str, empty: str
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The body of :func:`_gmsh_triangles` inside an initialised gmsh session."""
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.add(model)
+    build(gmsh)
+    if relative is None:
+        gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+    else:
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.model.mesh.setSizeCallback(
+            lambda dim, tag, x, y, z, lc: size * float(relative(x, y, z)))
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    # The size inside must not be interpolated from the boundary segments' lengths (that
+    # would tie the vertex count to how many times each segment is split).
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.model.mesh.generate(2)
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    types, _, node_tags = gmsh.model.mesh.getElements(2)
     if 2 not in list(types):
         raise InputError(empty)
     index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
