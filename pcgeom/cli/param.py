@@ -25,6 +25,7 @@ from ..errors import InputError
 from ..examples import EXAMPLES, load_example
 from ..io import PointCloud, check_writable, read_landmarks, read_points, write_ply_atomic
 from ..maps import choose_map, parametrize
+from ..maps.atlas import CUTS, MAX_STRETCH, check_cut
 from ..train import LOSS_TERMS, resolve_device
 from ._common import (EXIT_OK, add_denoise_option, add_output_options, add_texture_option,
                       distinct_paths,
@@ -89,6 +90,16 @@ def configure(p: argparse.ArgumentParser) -> None:
                         "(a polygon with holes, GeoJSON-style) or PATH.png (a binary mask: "
                         "its white pixels); 'pcgeom domains' lists them "
                         "(default: free boundary)")
+    p.add_argument("--cut", choices=CUTS, default="none",
+                   help="auto: seams that open the cloud into a disk (closed clouds of any "
+                        "genus, open ones without handles), mapped without a fold and packed "
+                        "into [0, 1]^2 with a gutter; the map file gets 'chart' and per-corner "
+                        "'corner_uv'; needs --domain free (default: none)")
+    p.add_argument("--max-stretch", default=MAX_STRETCH, metavar="S",
+                   help="with --cut auto: the bound (a number above 1) on a chart's "
+                        "scale-factor spread (95th over 5th percentile); validated and "
+                        "recorded, but the extra seams it would add are not built yet: one "
+                        f"chart (default: {MAX_STRETCH:g})")
     p.add_argument("--landmarks", metavar="FILE.json",
                    help="landmark pairs: points of the input (indices or 3D points) and their "
                         "targets in the domain (points or polylines); needs a domain")
@@ -176,6 +187,19 @@ def _write_mesh(args, outs, cloud: PointCloud, result) -> dict | None:
         return None
     # A denoised map was made of the fitted points: its mesh is theirs.
     fitted = result.fitted if result.fitted is not None else cloud
+    if result.corner_uv is not None:  # an atlas: the cut local mesh, uv per corner
+        mesh = map_mesh(fitted, result.uv, None, mesh_faces=result.mesh_faces)
+        write_mesh(outs["out_mesh"], mesh.vertices, mesh.faces, texture=args.texture,
+                   corner_uv=result.corner_uv)
+        files = None
+        if args.texture is not None:
+            files = {k: os.fspath(v)
+                     for k, v in texture_paths(outs["out_mesh"], args.texture).items()}
+        return {"source": "atlas", "n_vertices": len(mesh.vertices),
+                "n_faces": len(mesh.faces), "unused_points": mesh.unused,
+                "uv_offset": [0.0, 0.0], "uv_scale": 1.0,
+                "texture": args.texture.spec if args.texture is not None else None,
+                "texture_files": files}
     mesh = map_mesh(fitted, result.uv, cloud.faces, mesh_faces=result.mesh_faces,
                     config=result.config, normals=cloud.normals, progress=not args.quiet)
     scaling = uv_scaling(mesh.uv)
@@ -196,6 +220,13 @@ def run(args) -> int:
     domain = get_domain(args.domain)
     config = with_denoise(get_preset(args.preset), args.denoise)
     choose_map(domain, config, args.landmarks is not None)  # a request no map is built for
+    max_stretch = check_cut(args.cut, args.max_stretch, domain.name)
+    if args.cut == "auto" and args.landmarks is not None:
+        raise InputError("--cut auto does not take landmarks")
+    if args.cut == "auto" and args.out_mesh is not None \
+            and not str(args.out_mesh).lower().endswith(".obj"):
+        raise InputError("--out-mesh with --cut auto writes per-corner texture coordinates: "
+                         "give an .obj path")
     device = resolve_device(args.device)
     cloud, default_out = _load_input(args)
     points, faces, normals, name = cloud.points, cloud.faces, cloud.normals, cloud.source
@@ -212,7 +243,7 @@ def run(args) -> int:
         torch.set_num_threads(args.threads)
     result = parametrize(cloud, domain, config=config, landmarks=landmarks, device=device,
                          seed=args.seed, checkpoint=outs["checkpoint"], resume=args.resume,
-                         progress=not args.quiet)
+                         progress=not args.quiet, cut=args.cut, max_stretch=max_stretch)
     result.faces = faces
     domain = result.domain  # what the cloud decided filled in (annulus:auto's radius)
     result.save(outs["out"])
@@ -299,6 +330,9 @@ def run(args) -> int:
 
 def _mesh_line(mesh: dict, path: str, n_points: int) -> str:
     """The human line for ``--out-mesh``: whose triangles it holds."""
+    if mesh["source"] == "atlas":
+        return (f"{path}: the cut local mesh, {mesh['n_faces']} triangles over "
+                f"{mesh['n_vertices']} points, with the atlas as per-corner texture coordinates")
     if mesh["source"] == "input":
         return (f"{path}: the input's {mesh['n_faces']} triangles with the map as texture "
                 "coordinates")

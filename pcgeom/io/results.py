@@ -25,6 +25,10 @@ key                content
                    denoised (optional; input units and row order)
 ``mesh_faces``     (M, 3) int64 the local mesh the map was built on, its largest connected
                    part, as input rows (optional: the local-mesh maps)
+``chart``          (N,) int64 the chart of each point, for a cut map (``cut="auto"``: its
+                   ``uv`` is the atlas position in [0, 1]^2; optional)
+``corner_uv``      (M, 3, 2) float64 the atlas position of each corner of ``mesh_faces``
+                   (a seam vertex has one per side; optional, with ``chart``)
 =================  ==========================================================================
 
 Files written before ``domain_json``, ``seed`` and ``version`` existed still load, with a
@@ -98,6 +102,11 @@ class ParamResult:
     connected part; after the normal rounds, the mesh they kept), as rows of the input (a
     duplicated point: its first row); None for the network maps and for files written
     before it was kept."""
+    chart: np.ndarray | None = None
+    """(N,) int64 the chart of each point, for a cut map (``cut="auto"``); None otherwise."""
+    corner_uv: np.ndarray | None = None
+    """(M, 3, 2) float64 per-corner atlas positions of ``mesh_faces`` for a cut map (seam
+    vertices split in uv); None otherwise."""
 
     @property
     def preset(self) -> str:
@@ -138,6 +147,9 @@ class ParamResult:
             arrays["fitted"] = np.asarray(self.fitted, dtype=np.float64)
         if self.mesh_faces is not None:
             arrays["mesh_faces"] = np.asarray(self.mesh_faces, dtype=np.int64)
+        if self.chart is not None:
+            arrays["chart"] = np.asarray(self.chart, dtype=np.int64)
+            arrays["corner_uv"] = np.asarray(self.corner_uv, dtype=np.float64)
         write_atomic(path, lambda f: np.savez_compressed(f, **arrays))
         return path
 
@@ -216,6 +228,15 @@ class ParamResult:
         if fitted is not None and (fitted.shape != (len(uv), 3) or not np.isfinite(fitted).all()):
             raise InputError(f"{name}: 'fitted' must be finite, of shape ({len(uv)}, 3), "
                              f"got {fitted.shape}")
+        mesh_faces = (validate_faces(data["mesh_faces"], len(uv), f"{name}: mesh_faces")
+                      if "mesh_faces" in data else None)
+        chart, corner_uv = data.get("chart"), data.get("corner_uv")
+        if chart is not None:
+            if chart.shape != (len(uv),) or corner_uv is None or mesh_faces is None \
+                    or corner_uv.shape != (len(mesh_faces), 3, 2) \
+                    or not np.isfinite(corner_uv).all():
+                raise InputError(f"{name}: 'chart' must have shape ({len(uv)},), with "
+                                 "finite 'corner_uv' of shape (M, 3, 2) for 'mesh_faces'")
         return cls(
             uv=uv.astype(np.float64),
             lambda_inv=None if lambda_inv is None else lambda_inv.astype(np.float64),
@@ -231,6 +252,7 @@ class ParamResult:
             faces=validate_faces(data["faces"], len(uv), name) if "faces" in data else None,
             denoise=denoise,
             fitted=None if fitted is None else fitted.astype(np.float64),
-            mesh_faces=(validate_faces(data["mesh_faces"], len(uv), f"{name}: mesh_faces")
-                        if "mesh_faces" in data else None),
+            mesh_faces=mesh_faces,
+            chart=None if chart is None else chart.astype(np.int64),
+            corner_uv=None if chart is None else corner_uv.astype(np.float64),
         )

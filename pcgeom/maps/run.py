@@ -39,6 +39,7 @@ from ..train.data import TrainData
 from ..train.device import resolve_device
 from ..train.objective import Objective
 from ..train.plan import stage_plan
+from .atlas import MAX_STRETCH, atlas_map, check_cut
 from .disk import disk_map
 from .domain import domain_map, resolve_domain
 from .free import free_map, free_start
@@ -57,6 +58,8 @@ MAPS = {
               "onto a disk with landmarks, or where a domain hole gets no hole of the cloud, "
               "the local mesh laid on the domain, then refined",
     "networks": "Algorithm 1's network stages, then the refinement (pcgeom.maps.networks)",
+    "atlas": "cut='auto': seams open the local mesh into a disk, mapped without a fold and "
+             "packed into the unit square (pcgeom.maps.atlas)",
     "sphere": "onto the sphere, a closed genus-0 cloud: the spherical conformal map of its "
               "closed local mesh (pcgeom.maps.sphere)",
 }
@@ -131,6 +134,8 @@ def parametrize(
     progress: bool = True,
     on_stage: Callable[[dict, np.ndarray], None] | None = None,
     normals=None,
+    cut: str = "none",
+    max_stretch: float = MAX_STRETCH,
 ) -> ParamResult:
     """Parametrize a point cloud onto ``domain``.
 
@@ -179,6 +184,14 @@ def parametrize(
         ``networks`` and ``fast``), and the refinement drops those pairs from its neighbour
         lists. Without them, the local-mesh map estimates and orients normals
         (:mod:`pcgeom.maps.normals`), and the map may fold where sheets touch.
+    cut : "none" or "auto"
+        ``"auto"`` (onto ``free`` only): seams that open the cloud's local mesh into a disk
+        (any genus, closed or open without handles), a map that turns no triangle over,
+        packed into ``[0, 1]^2`` (:func:`pcgeom.maps.atlas.atlas_map`); the result has
+        ``chart`` and ``corner_uv``.
+    max_stretch : float
+        The bound (> 1) on a chart's scale-factor spread for ``cut="auto"``; validated and
+        recorded, the extra seams it would add are not built yet (one chart).
 
     Returns
     -------
@@ -211,7 +224,12 @@ def parametrize(
     if normals is not None:
         normals = normals[first]
     Xn, center, scale = normalize(unique)
+    max_stretch = check_cut(cut, max_stretch, domain.name)
     kind = choose_map(domain, config, bool(landmarks))
+    if cut == "auto":
+        if landmarks:
+            raise InputError("--cut auto does not take landmarks")
+        kind = "atlas"
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
     if lm_points and not domain.bounded:
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
@@ -224,7 +242,7 @@ def parametrize(
         log(f"noise {denoised['noise']:.2f} spacings: the map is made of the fitted surface "
             f"(points moved {denoised['moved']:.2f} spacings on average)", enabled=progress)
 
-    def result(uv, lam_inv, history, mesh=None, faces=None) -> ParamResult:
+    def result(uv, lam_inv, history, mesh=None, faces=None, atlas=None) -> ParamResult:
         """The run's result, rows back in the input's order (duplicates included), with the
         local mesh's main part (``mesh``), or the triangles ``faces`` (rows of ``Xn``: the
         sphere map's closed mesh), as input rows; a warning when the map turns over
@@ -242,6 +260,8 @@ def parametrize(
             denoise=denoised if config.denoise.mode != "off" else None,
             fitted=(Xn * scale + center)[inverse] if denoised["applied"] else None,
             mesh_faces=None if faces is None else first[faces],
+            chart=None if atlas is None else atlas["chart"][inverse],
+            corner_uv=None if atlas is None else atlas["corner_uv"],
         )
 
     def report(record: dict, U) -> None:
@@ -258,6 +278,12 @@ def parametrize(
                                        progress=progress, start=start)
         report(record, uv)
         return result(uv, lam_inv, [record], start[1])
+    if kind == "atlas":
+        atlas = atlas_map(Xn, normals, config, progress=progress, outlier=outlier,
+                          max_stretch=max_stretch)
+        report(atlas["record"], atlas["uv"])
+        return result(atlas["uv"], atlas["lambda_inv"], [atlas["record"]],
+                      faces=atlas["faces"], atlas=atlas)
     if kind == "sphere":
         uv, lam_inv, record, faces = sphere_map(Xn, normals, config, progress=progress,
                                                 outlier=outlier)

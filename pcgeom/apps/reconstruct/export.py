@@ -66,7 +66,7 @@ def texture_paths(path, texture) -> dict[str, Path]:
             "image": path.with_name(f"{path.stem}_{texture.kind}.png")}
 
 
-def write_mesh(path, V, F, uv=None, texture=None) -> Path:
+def write_mesh(path, V, F, uv=None, texture=None, *, corner_uv=None) -> Path:
     """Write the triangle mesh ``(V, F)`` atomically, in the format of ``path``'s extension,
     with texture coordinates ``uv`` and a ``texture`` image when given.
 
@@ -88,8 +88,13 @@ def write_mesh(path, V, F, uv=None, texture=None) -> Path:
     uv : (K, 2) array_like, optional
         Texture coordinates, one pair per vertex (``UVScaling.apply`` of the map).
     texture : Texture, optional
-        The image to map (:func:`pcgeom.apps.texture.parse_texture`); needs ``uv`` and an
-        ``.obj`` path.
+        The image to map (:func:`pcgeom.apps.texture.parse_texture`); needs ``uv`` (or
+        ``corner_uv``) and an ``.obj`` path.
+    corner_uv : (M, 3, 2) array_like, optional
+        Texture coordinates per corner of ``F`` instead of ``uv`` (an atlas: a seam vertex has
+        one per side), ``.obj`` only: one ``vt`` per distinct (vertex, uv) pair, faces
+        ``f a/ta b/tb c/tc``; the vertices are not split (a reader that splits them, such as
+        trimesh, gets one vertex per ``vt``).
 
     Returns
     -------
@@ -112,6 +117,16 @@ def write_mesh(path, V, F, uv=None, texture=None) -> Path:
     if not np.isfinite(V).all():
         raise ValueError("V: contains NaN or inf")
     F = validate_faces(F, len(V), name="F", allow_empty=False)
+    if corner_uv is not None:
+        corner_uv = np.asarray(corner_uv, dtype=np.float64)
+        if corner_uv.shape != (len(F), 3, 2) or not np.isfinite(corner_uv).all():
+            raise ValueError(f"corner_uv: expected finite values of shape ({len(F)}, 3, 2), "
+                             f"got {corner_uv.shape}")
+        if path.suffix.lower() != ".obj":
+            raise InputError(f"{path}: per-corner texture coordinates are written to .obj only")
+        files = _obj_corner_files(path, V, F, corner_uv, texture)
+        write_files_atomic({p: (lambda f, data=data: f.write(data)) for p, data in files.items()})
+        return path
     if uv is not None:
         uv = check_uv(uv, len(V))
     elif texture is not None:
@@ -122,6 +137,28 @@ def write_mesh(path, V, F, uv=None, texture=None) -> Path:
     files = _obj_files(path, V, F, uv, texture)
     write_files_atomic({p: (lambda f, data=data: f.write(data)) for p, data in files.items()})
     return path
+
+
+def _obj_corner_files(path: Path, V, F, corner_uv, texture) -> dict[Path, bytes]:
+    """The OBJ text with one ``vt`` per distinct (vertex, corner uv) (and with a texture its
+    material and image, from :func:`_obj_files`), by path."""
+    first = np.zeros((len(V), 2))
+    first[F.ravel()] = corner_uv.reshape(-1, 2)
+    files = _obj_files(path, V, F, first, texture)
+    header = [line for line in files[path].decode("utf-8").split("\n")
+              if line.startswith(("#", "mtllib ", "usemtl "))]
+    keys = np.column_stack([F.reshape(-1, 1).astype(np.float64), corner_uv.reshape(-1, 2)])
+    unique, vt_index = np.unique(keys, axis=0, return_inverse=True)
+    vt_index = vt_index.reshape(-1, 3) + 1
+    lines = [h for h in header if not h.startswith("usemtl ")]
+    lines += [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in V]
+    lines += [f"vt {u:.17g} {v:.17g}" for u, v in unique[:, 1:]]
+    lines += [h for h in header if h.startswith("usemtl ")]
+    Fv = F + 1
+    lines += [f"f {a}/{ta} {b}/{tb} {c}/{tc}"
+              for (a, b, c), (ta, tb, tc) in zip(Fv.tolist(), vt_index.tolist())]
+    files[path] = ("\n".join(lines) + "\n").encode("utf-8")
+    return files
 
 
 def _obj_files(path: Path, V, F, uv, texture) -> dict[Path, bytes]:

@@ -1,0 +1,174 @@
+"""``cut="auto"``: seams (tree-cotree), the cut mesh, the chart without a fold, the atlas in the
+unit square, its results fields and OBJ, and every error message."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pcgeom import ParamResult, parametrize
+from pcgeom.errors import InputError
+from pcgeom.io import write_ply_atomic
+from pcgeom.maps.atlas import boundary_simple, overlap_area
+from pcgeom.maps.seams import cut_graph, cut_open, euler_characteristic
+from pcgeom.mesh import boundary_loops, signed_areas
+from pcgeom.synthetic_closed import closed_surface
+
+from .helpers import assert_cli_fails
+
+
+@pytest.fixture(scope="module")
+def torus():
+    return closed_surface("torus", 2000, seed=1)
+
+
+@pytest.fixture(scope="module")
+def torus_map(torus):
+    return parametrize(torus.points, "free", cut="auto", progress=False)
+
+
+@pytest.mark.parametrize("name, genus", [("torus", 1), ("ellipsoid", 0)])
+def test_cut_true_mesh_is_a_disk(name, genus):
+    """Tree-cotree on the true closed mesh: the cut mesh has Euler characteristic 1 and one
+    boundary loop (a disk), 2g loops (one path at genus 0), every edge of the seams doubled."""
+    s = closed_surface(name, 2000)
+    E, cut, info = cut_graph(s.points, s.faces)
+    assert info["genus"] == genus and info["loops"] == (2 * genus if genus else 1)
+    Fc, origin = cut_open(s.faces, E, cut, len(s.points))
+    assert euler_characteristic(Fc) == 1
+    loops = boundary_loops(Fc)
+    assert len(loops) == 1
+    assert len(loops[0]) == 2 * cut.sum()  # each seam edge once on each side
+    np.testing.assert_array_equal(origin[Fc], s.faces)
+    # Pruned: every seam vertex of a loop graph has degree 2 or more.
+    if genus:
+        deg = np.bincount(E[cut].ravel(), minlength=len(s.points))
+        assert deg[deg > 0].min() >= 2
+
+
+def test_torus_atlas(torus, torus_map):
+    r = torus_map
+    rec = r.history[-1]
+    assert rec["seams"]["genus"] == 1 and rec["seams"]["loops"] == 2
+    assert rec["cut_euler"] == 1 and rec["cut_loops"] == 1
+    assert rec["flips"]["count"] == 0 and rec["overlap"] is False
+    assert r.uv.shape == (len(torus.points), 2)
+    assert (r.uv >= 0).all() and (r.uv <= 1).all()
+    assert (r.corner_uv >= 0.02 - 1e-12).all() and (r.corner_uv <= 0.98 + 1e-12).all()
+    np.testing.assert_array_equal(r.chart, 0)
+    # No corner triangle turned over, none overlapping another (shapely union).
+    U = r.corner_uv.reshape(-1, 2)
+    F = np.arange(len(U)).reshape(-1, 3)
+    assert (signed_areas(U, F) > 0).all()
+    assert overlap_area(U, F) < 1e-9
+    # Seams split the uv: some points carry two or more uv.
+    keys = np.unique(np.column_stack([r.mesh_faces.reshape(-1, 1), U]), axis=0)
+    assert len(keys) > len(np.unique(r.mesh_faces))
+    # The scale-factor spread of a torus of radii 1 and 0.4 is about ((1 + .4)/(1 - .4))^2.
+    assert 2.0 < rec["stretch"] < 8.0
+
+
+def test_overlap_checks_fail_on_a_fold():
+    """boundary_simple and overlap_area see a chart folded over itself."""
+    U = np.array([[0, 0], [1, 0], [0, 1], [1, 1]], dtype=float)
+    F = np.array([[0, 1, 2], [1, 0, 3]])  # the second triangle lies over the first's side
+    U2 = np.array([[0, 0], [1, 0], [0, 1], [0.6, 0.6]], dtype=float)
+    F2 = np.array([[0, 1, 2], [0, 1, 3]])
+    assert overlap_area(U2, F2) > 0.1
+    assert overlap_area(U, np.array([[0, 1, 2], [1, 3, 2]])) < 1e-12
+    assert boundary_simple(U, np.array([[0, 1, 2], [1, 3, 2]]))
+    del F
+
+
+def test_round_trip_and_old_files(tmp_path, torus_map):
+    r = torus_map
+    path = r.save(tmp_path / "t.npz")
+    q = ParamResult.load(path)
+    np.testing.assert_array_equal(q.chart, r.chart)
+    np.testing.assert_array_equal(q.corner_uv, r.corner_uv)
+    np.testing.assert_array_equal(q.uv, r.uv)
+    # A file without the atlas keys (every file before them) loads as before.
+    with np.load(path) as data:
+        old = {k: data[k] for k in data.files if k not in ("chart", "corner_uv")}
+    np.savez(tmp_path / "old.npz", **old)
+    o = ParamResult.load(tmp_path / "old.npz")
+    assert o.chart is None and o.corner_uv is None
+    np.testing.assert_array_equal(o.uv, r.uv)
+    bad = dict(old, chart=np.zeros(3, dtype=np.int64), corner_uv=r.corner_uv)
+    np.savez(tmp_path / "bad.npz", **bad)
+    with pytest.raises(InputError, match="'chart' must have shape"):
+        ParamResult.load(tmp_path / "bad.npz")
+
+
+def test_open_disk_gets_no_seam():
+    e = closed_surface("ellipsoid", 2000)
+    z = e.points[:, 2]
+    r = parametrize(e.points[z < 0.6 * np.abs(z).max()], cut="auto", progress=False)
+    rec = r.history[-1]
+    assert rec["seams"]["length"] == 0.0 and rec["flips"]["count"] == 0
+    assert rec["cut_loops"] == 1 and (r.uv >= 0).all() and (r.uv <= 1).all()
+
+
+def test_open_errors():
+    s = closed_surface("torus", 2000)
+    P = s.points
+    with pytest.raises(InputError, match="open cloud with handles is not built yet"):
+        parametrize(P[np.linalg.norm(P - P[np.argmax(P[:, 0])], axis=1) > 0.8], cut="auto",
+                    progress=False)
+    e = closed_surface("ellipsoid", 2000)
+    z = e.points[:, 2]
+    with pytest.raises(InputError, match="open cloud with 2 boundary loops is not built yet"):
+        parametrize(e.points[np.abs(z) < 0.8 * np.abs(z).max()], cut="auto", progress=False)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"cut": "yes"}, "cut must be one of none, auto, got 'yes'"),
+    ({"cut": "auto", "domain": "disk"}, "--cut auto maps onto the free domain only"),
+    ({"cut": "auto", "max_stretch": 1.0}, "max-stretch must be a number above 1, got 1.0"),
+    ({"cut": "auto", "max_stretch": "abc"}, "max-stretch must be a number above 1, got 'abc'"),
+    ({"cut": "auto", "max_stretch": float("nan")}, "max-stretch must be a number above 1"),
+])
+def test_api_errors(torus, kwargs, message):
+    with pytest.raises(InputError, match=message):
+        parametrize(torus.points, progress=False, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def torus_file(tmp_path_factory, torus):
+    path = tmp_path_factory.mktemp("atlas") / "torus.ply"
+    write_ply_atomic(path, torus.points, torus.faces)
+    return path
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--cut", "auto", "--domain", "disk"], "--cut auto maps onto the free domain only"),
+    (["--cut", "auto", "--max-stretch", "0.5"], "max-stretch must be a number above 1, got '0.5'"),
+    (["--cut", "auto", "--max-stretch", "big"], "max-stretch must be a number above 1, got 'big'"),
+    (["--cut", "auto", "--out-mesh", "m.ply"], "--out-mesh with --cut auto writes per-corner"),
+    (["--cut", "some"], "argument --cut: invalid choice: 'some'"),
+])
+def test_cli_errors(tmp_path, monkeypatch, capsys, torus_file, extra, message):
+    monkeypatch.chdir(tmp_path)
+    assert_cli_fails(capsys, ["param", str(torus_file), "--out", "o.npz", *extra], message)
+    assert not any(tmp_path.iterdir())
+
+
+def test_cli_obj(tmp_path, capsys, torus_file):
+    import trimesh
+
+    from pcgeom import cli
+
+    obj = tmp_path / "t.obj"
+    assert cli.main(["param", str(torus_file), "--cut", "auto", "--out", str(tmp_path / "t.npz"),
+                     "--out-mesh", str(obj), "--texture", "checker:8", "--quiet"]) == 0
+    capsys.readouterr()
+    r = ParamResult.load(tmp_path / "t.npz")
+    text = obj.read_text()
+    n_v = sum(line.startswith("v ") for line in text.splitlines())
+    n_vt = sum(line.startswith("vt ") for line in text.splitlines())
+    assert n_v == len(np.unique(r.mesh_faces)) and n_vt > n_v  # split in uv, not in 3D
+    m = trimesh.load(obj, process=False)
+    assert len(m.faces) == len(r.mesh_faces)
+    assert len(m.vertices) == n_vt  # trimesh splits a vertex per vt
+    assert (m.visual.uv >= 0).all() and (m.visual.uv <= 1).all()
+    assert (tmp_path / "t.mtl").exists() and (tmp_path / "t_checker.png").exists()
