@@ -13,7 +13,6 @@ method (tree-cotree on the true mesh: seams of the same construction, not the sa
 
 from __future__ import annotations
 
-import itertools
 import sys
 import time
 from pathlib import Path
@@ -23,35 +22,10 @@ import numpy as np
 from pcgeom import parametrize
 from pcgeom.io import read_points
 from pcgeom.maps.atlas import chart_map, overlap_area
+from pcgeom.maps.atlas_eval import triangle_uv
 from pcgeom.maps.seams import cut_graph, cut_open
 from pcgeom.metrics import angle_distortion
 from pcgeom.synthetic_closed import closed_surface
-
-
-def true_triangle_uv(P, faces, mesh_faces, corner_uv):
-    """Per true triangle, the uv of its corners (best copies) and whether a seam crosses it."""
-    rows = mesh_faces.ravel()
-    U = corner_uv.reshape(-1, 2)
-    keys, first = np.unique(np.column_stack([rows, U]), axis=0, return_index=True)
-    pt = keys[:, 0].astype(int)
-    copies = [[] for _ in range(len(P))]
-    for p, u in zip(pt, keys[:, 1:]):
-        copies[p].append(u)
-    T = np.full((len(faces), 3, 2), np.nan)
-    for t, f in enumerate(faces):
-        opts = [copies[v] if copies[v] else [np.array([np.nan, np.nan])] for v in f]
-        best, bp = None, np.inf
-        for combo in itertools.product(*opts):
-            c = np.array(combo)
-            per = np.linalg.norm(c - np.roll(c, 1, axis=0), axis=1).sum()
-            if per < bp:
-                best, bp = c, per
-        T[t] = best
-    p3 = np.linalg.norm(P[faces] - np.roll(P[faces], 1, axis=1), axis=2).sum(axis=1)
-    p2 = np.linalg.norm(T - np.roll(T, 1, axis=1), axis=2).sum(axis=1)
-    ratio = p2 / p3
-    crossed = ~np.isfinite(ratio) | (ratio > 3 * np.nanmedian(ratio))
-    return T, crossed
 
 
 def angle_inside(P, faces, T, crossed):
@@ -85,7 +59,7 @@ def run(name, P, faces):
             f"flips {rec['flips']['count']}  overlap {ov:.1e}  spread {rec['stretch']:.2f}  "
             f"seam/sqrtA {rec['seam_length']:.2f}  {sec:.1f} s")
     if faces is not None:
-        T, crossed = true_triangle_uv(P, faces,
+        T, crossed = triangle_uv(P, faces,
                                       r.mesh_faces, r.corner_uv)
         ang, fl = angle_inside(P, faces, T, crossed)
         la, lf, ls = lscm_true(P, faces)
@@ -94,12 +68,43 @@ def run(name, P, faces):
     print(line, flush=True)
 
 
+def genus2(n: int, seed: int = 0) -> np.ndarray:
+    """About ``n`` points on the genus-2 implicit surface
+    ``(x (x - 1)^2 (x - 2) + y^2)^2 + z^2 = 0.03``: random points of its box projected onto it
+    (Newton along the gradient), thinned to a minimum distance (no true faces)."""
+    from scipy.spatial import cKDTree
+
+    def f(P):
+        x, y, z = P.T
+        return (x * (x - 1) ** 2 * (x - 2) + y ** 2) ** 2 + z ** 2 - 0.03
+
+    def grad(P, h=1e-6):
+        return np.column_stack([(f(P + d) - f(P - d)) / (2 * h) for d in np.eye(3) * h])
+
+    rng = np.random.default_rng(seed)
+    P = rng.uniform([-0.3, -1, -0.4], [2.3, 1, 0.4], size=(40 * n, 3))
+    for _ in range(30):
+        g = grad(P)
+        P = P - (f(P) / np.maximum((g * g).sum(1), 1e-12))[:, None] * g
+    P = P[np.abs(f(P)) < 1e-9]
+    keep = np.ones(len(P), dtype=bool)
+    tree = cKDTree(P)
+    for i in rng.permutation(len(P)):
+        if keep[i]:
+            keep[tree.query_ball_point(P[i], 0.62 * np.sqrt(6.0 / n))] = False
+            keep[i] = True
+    return P[keep]
+
+
 def main():
     for n in (5000, 20000):
         s = closed_surface("torus", n)
         run(f"torus uniform", s.points, s.faces)
     s = closed_surface("torus", 5000, sampling="scan")
     run("torus scan", s.points, s.faces)
+    for n in (5000, 20000):
+        P = genus2(n)
+        run("genus-2 implicit (no faces)", P, None)
     head = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "closed_david_head_choi.ply"
     if head.exists():
         c = read_points(head)

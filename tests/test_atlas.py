@@ -172,3 +172,51 @@ def test_cli_obj(tmp_path, capsys, torus_file):
     assert len(m.vertices) == n_vt  # trimesh splits a vertex per vt
     assert (m.visual.uv >= 0).all() and (m.visual.uv <= 1).all()
     assert (tmp_path / "t.mtl").exists() and (tmp_path / "t_checker.png").exists()
+
+
+def test_cut_map_report(torus, torus_map):
+    """Inside charts no true triangle flips and the angle error is that of a smooth map; the
+    per-point uv alone (one side of every seam) turns the seam's triangles over."""
+    from pcgeom.maps.atlas_eval import cut_map_report, triangle_uv
+    from pcgeom.metrics import angle_distortion
+
+    rep = cut_map_report(torus.points, torus.faces, torus_map)
+    assert rep["flipped"] == 0 and rep["overlap"] < 1e-9
+    assert 0 < rep["seam_crossed_percent"] < 2.0
+    assert rep["mean_abs_angle_rad"] < 0.03
+    assert rep["n_faces"] + rep["seam_crossed"] == len(torus.faces)
+    naive = angle_distortion(torus.points, torus.faces, torus_map.uv)
+    assert naive.flipped > rep["seam_crossed"] / 4
+    T, crossed = triangle_uv(torus.points, torus.faces, torus_map.mesh_faces,
+                             torus_map.corner_uv)
+    assert (signed_areas(T[~crossed].reshape(-1, 2),
+                         np.arange(3 * (~crossed).sum()).reshape(-1, 3)) > 0).all()
+
+
+def test_cli_evaluate_cut_map(tmp_path, capsys, torus_file):
+    import json
+
+    from pcgeom import cli
+
+    out = tmp_path / "t.npz"
+    assert cli.main(["param", str(torus_file), "--cut", "auto", "--out", str(out), "--quiet",
+                     "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["evaluation"]["flipped"] == 0
+    assert cli.main(["evaluate", str(torus_file), str(out), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["flipped"] == 0 and rep["charts"] == 1 and rep["seam_crossed"] > 0
+    assert_cli_fails(capsys, ["evaluate", str(torus_file), str(out), "--plot",
+                              str(tmp_path / "a.png")],
+                     "--plot is not built for a cut map (--cut auto) yet")
+
+
+def test_more_roots_never_longer():
+    """cut_graph keeps the shortest of its roots' cuts, still a disk."""
+    s = closed_surface("torus", 2000)
+    E, one, _ = cut_graph(s.points, s.faces)
+    E, four, info = cut_graph(s.points, s.faces, roots=4)
+    length = np.linalg.norm(s.points[E[:, 0]] - s.points[E[:, 1]], axis=1)
+    assert info["roots"] == 4 and length[four].sum() <= length[one].sum() + 1e-12
+    Fc, _ = cut_open(s.faces, E, four, len(s.points))
+    assert euler_characteristic(Fc) == 1 and len(boundary_loops(Fc)) == 1

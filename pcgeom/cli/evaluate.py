@@ -101,6 +101,8 @@ def run(args) -> int:
     if single_png:
         distinct_paths({"MESH": args.mesh, "MAP.npz": args.map}, {"plot": plot})
     result = ParamResult.load(args.map, n_points=len(mesh.points), against=args.mesh)
+    if result.corner_uv is not None:
+        return _run_cut(args, mesh, result)
 
     evaluation = evaluate_map(result.uv, mesh.points, mesh.faces, result.domain,
                               result.history, baselines=() if args.no_baselines else None)
@@ -147,6 +149,32 @@ def run(args) -> int:
               f"{base['flipped']} flipped ({base['flipped_percent']:.2f}%)")
     if plots:
         print("figures: " + ", ".join(v for v in plots.values() if v is not None))
+    return EXIT_OK
+
+
+def _run_cut(args, mesh, result) -> int:
+    """``evaluate`` of a cut map (``--cut auto``): the true triangles inside charts, those a
+    seam crosses, the scale factor's spread, seams, overlap (no baselines, no figures)."""
+    from ..maps.atlas_eval import cut_map_report
+
+    if args.plot:
+        raise InputError("--plot is not built for a cut map (--cut auto) yet")
+    report = cut_map_report(mesh.points, mesh.faces, result)
+    if args.json:
+        print(json.dumps({"command": "evaluate", "mesh": args.mesh, "map": args.map,
+                          "domain": "atlas", "preset": result.preset, "seed": result.seed,
+                          "version": result.version, **report}))
+        return EXIT_OK
+    print(f"{args.map} on {args.mesh}: a cut map ({report['charts']} chart(s), atlas use "
+          f"{report['atlas_use']:.2f} of the unit square)")
+    print(f"inside charts: {report['n_faces']} of {report['n_true_faces']} true triangles; "
+          f"{report['seam_crossed']} ({report['seam_crossed_percent']:.2f}%) crossed by a "
+          "seam, left out")
+    print_angles(report)
+    print(f"  {_angles_line(report)}")
+    print(f"scale-factor spread (95th / 5th percentile): {report['stretch']:.2f}; seam length "
+          f"{report['seam_length']:.2f} x sqrt(area); overlap {report['overlap']:.2g} of the "
+          "charts' area")
     return EXIT_OK
 
 

@@ -262,7 +262,11 @@ def run(args) -> int:
         else:
             plot_map(result.uv, outs["plot"], values=result.lambda_inv, domain=domain,
                      title=title)
-    report = map_report(result.uv, domain, points, faces)
+    report = map_report(result.uv, domain, points, faces if result.corner_uv is None else None)
+    if faces is not None and result.corner_uv is not None:  # a cut map: inside charts
+        from ..maps.atlas_eval import cut_map_report
+
+        report.update(cut_map_report(points, faces, result, overlap=False))
     outs["checkpoint"].unlink(missing_ok=True)
 
     final = result.history[-1] if result.history else {}

@@ -73,7 +73,8 @@ def _prune(E: np.ndarray, cut: np.ndarray, n: int) -> np.ndarray:
         cut &= ~dangling
 
 
-def cut_graph(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
+def cut_graph(V: np.ndarray, F: np.ndarray, *, roots: int = 1
+              ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The seams that open the closed, connected, oriented mesh ``(V, F)`` into a disk.
 
     Parameters
@@ -81,6 +82,9 @@ def cut_graph(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, dic
     V : (n, 3) float64
     F : (m, 3) int64
         Closed (every edge on two triangles), one connected part.
+    roots : int
+        Roots tried at genus >= 1 (the vertex nearest the centroid, then farthest-point
+        samples of the mesh graph); the shortest pruned cut is kept.
 
     Returns
     -------
@@ -90,7 +94,7 @@ def cut_graph(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, dic
         The seam edges.
     info : dict
         ``genus``, ``loops`` (the ``2g`` loops, or 1 path at genus 0), ``root``,
-        ``length`` (the seams' total length, in the units of ``V``).
+        ``length`` (the seams' total length, in the units of ``V``), ``roots`` (tried).
     """
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
@@ -115,39 +119,64 @@ def cut_graph(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, dic
         mark(_tree_path(pred, b))
         info = {"genus": 0, "loops": 1, "root": a}
     else:
-        root = int(np.argmin(np.linalg.norm(V - V.mean(axis=0), axis=1)))
-        dist, pred = dijkstra(G, indices=root, return_predecessors=True)
-        pred = np.where(pred < 0, -1, pred).astype(np.int64)
-        child = np.flatnonzero(pred >= 0)
-        in_tree = np.zeros(len(E), dtype=bool)
-        tree_keys = np.minimum(child, pred[child]) * n + np.maximum(child, pred[child])
-        in_tree[np.searchsorted(E[:, 0] * n + E[:, 1], tree_keys)] = True
-        # The dual graph over the edges not in T: the two triangles of each edge.
-        he = half_edges(F)
-        keys = np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
-        eid = np.searchsorted(E[:, 0] * n + E[:, 1], keys)
-        tri = np.arange(len(he)) % m
-        order = np.argsort(eid, kind="stable")
-        pairs = tri[order].reshape(-1, 2)  # closed: every edge on exactly two triangles
-        loop_len = dist[E[:, 0]] + dist[E[:, 1]] + length
-        free = ~in_tree
-        # Maximum spanning tree of loop lengths: a minimum one of (top - length), all > 0.
-        w = (loop_len.max() * 1.01 + 1e-9) - loop_len[free]
-        D = sp.coo_matrix((w, (pairs[free, 0], pairs[free, 1])), shape=(m, m)).tocsr()
-        C = minimum_spanning_tree(D).tocoo()
-        dual_keys = set(zip(np.minimum(C.row, C.col).tolist(), np.maximum(C.row, C.col).tolist()))
-        lo, hi = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
-        in_cotree = np.array([(int(a), int(b)) in dual_keys for a, b in zip(lo, hi)])
-        left = np.flatnonzero(free & ~in_cotree)
-        for e in left:
-            u, v = int(E[e, 0]), int(E[e, 1])
-            mark(_tree_path(pred, u))
-            mark(_tree_path(pred, v))
-            cut[e] = True
-        info = {"genus": int(genus), "loops": int(len(left)), "root": root}
-        cut = _prune(E, cut, n)
+        start = int(np.argmin(np.linalg.norm(V - V.mean(axis=0), axis=1)))
+        candidates, best = [start], None
+        far = dijkstra(G, indices=start)
+        for _ in range(max(int(roots), 1)):
+            root = candidates[-1]
+            E_cut, info = _tree_cotree(V, F, E, G, length, root, genus)
+            total = float(length[E_cut].sum())
+            if best is None or total < best[0]:
+                best = (total, E_cut, info)
+            d = dijkstra(G, indices=root)
+            far = np.minimum(far, d)
+            candidates.append(int(np.argmax(np.where(np.isfinite(far), far, -1))))
+        cut, info = best[1], best[2]
+        info["roots"] = max(int(roots), 1)
     info["length"] = float(length[cut].sum())
     return E, cut, info
+
+
+def _tree_cotree(V, F, E, G, length, root: int, genus: int) -> tuple[np.ndarray, dict]:
+    """The pruned tree-cotree cut graph from ``root`` (steps 1-3 of the module)."""
+    n, m = len(V), len(F)
+    cut = np.zeros(len(E), dtype=bool)
+    index = _edge_index(E, n)
+
+    def mark(path: list[int]) -> None:
+        for a, b in zip(path[:-1], path[1:]):
+            cut[index[min(a, b) * n + max(a, b)]] = True
+
+    dist, pred = dijkstra(G, indices=root, return_predecessors=True)
+    pred = np.where(pred < 0, -1, pred).astype(np.int64)
+    child = np.flatnonzero(pred >= 0)
+    in_tree = np.zeros(len(E), dtype=bool)
+    tree_keys = np.minimum(child, pred[child]) * n + np.maximum(child, pred[child])
+    in_tree[np.searchsorted(E[:, 0] * n + E[:, 1], tree_keys)] = True
+    # The dual graph over the edges not in T: the two triangles of each edge.
+    he = half_edges(F)
+    keys = np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
+    eid = np.searchsorted(E[:, 0] * n + E[:, 1], keys)
+    tri = np.arange(len(he)) % m
+    order = np.argsort(eid, kind="stable")
+    pairs = tri[order].reshape(-1, 2)  # closed: every edge on exactly two triangles
+    loop_len = dist[E[:, 0]] + dist[E[:, 1]] + length
+    free = ~in_tree
+    # Maximum spanning tree of loop lengths: a minimum one of (top - length), all > 0.
+    w = (loop_len.max() * 1.01 + 1e-9) - loop_len[free]
+    D = sp.coo_matrix((w, (pairs[free, 0], pairs[free, 1])), shape=(m, m)).tocsr()
+    C = minimum_spanning_tree(D).tocoo()
+    dual_keys = set(zip(np.minimum(C.row, C.col).tolist(), np.maximum(C.row, C.col).tolist()))
+    lo, hi = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
+    in_cotree = np.array([(int(a), int(b)) in dual_keys for a, b in zip(lo, hi)])
+    left = np.flatnonzero(free & ~in_cotree)
+    for e in left:
+        u, v = int(E[e, 0]), int(E[e, 1])
+        mark(_tree_path(pred, u))
+        mark(_tree_path(pred, v))
+        cut[e] = True
+    info = {"genus": int(genus), "loops": int(len(left)), "root": root}
+    return _prune(E, cut, n), info
 
 
 def cut_open(F: np.ndarray, E: np.ndarray, cut: np.ndarray, n: int
