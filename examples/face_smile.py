@@ -52,6 +52,9 @@ def main(argv=None) -> int:
     p.add_argument("--landmarks", choices=("auto", "always", "never"), default="auto",
                    help="the landmark run: only when the first run does not land every hole "
                         "(auto), always, or never (default: auto)")
+    p.add_argument("--points", type=int, default=None,
+                   help="decimate the face to about this many points, its holes kept; 0: all "
+                        "5053 (default: 0; 2000 with --quick)")
     args = p.parse_args(argv)
     path = _common.data_file(SURFACE)
     out = _common.out_dir(args.out)
@@ -61,6 +64,11 @@ def main(argv=None) -> int:
 
     cloud = pcgeom.read_points(path)
     V, F = cloud.points, cloud.faces
+    normals = cloud.normals
+    n_points = args.points if args.points is not None else (2000 if args.quick else 0)
+    if n_points:
+        V, F = _common.decimate(V, F, n_points)
+        normals = None  # the file's belong to its own points
     smile = pcgeom.get_domain("smile")
     holes_idx = mesh_holes(V, F)
     targets = domain_holes(smile)
@@ -72,7 +80,7 @@ def main(argv=None) -> int:
 
     runs = {}
     _, stages, maps = _common.parametrize_by_stage(
-        V, smile, config, faces=F, normals=cloud.normals, seed=args.seed, n_measure=n_measure,
+        V, smile, config, faces=F, normals=normals, seed=args.seed, n_measure=n_measure,
         script="face_smile")
     for row, U in zip(stages, maps):
         row["landing"] = hole_landing(U, holes_idx, targets)
@@ -83,7 +91,7 @@ def main(argv=None) -> int:
     if args.landmarks == "always" or (args.landmarks == "auto" and not first["all_land"]):
         pairs, names = hole_landmarks(V, maps[-1], holes_idx, targets)
         _, lm_stages, lm_maps = _common.parametrize_by_stage(
-            V, smile, config, faces=F, normals=cloud.normals, landmarks=pairs, seed=args.seed,
+            V, smile, config, faces=F, normals=normals, landmarks=pairs, seed=args.seed,
             n_measure=n_measure, script="face_smile")
         for row, U in zip(lm_stages, lm_maps):
             row["landing"] = hole_landing(U, holes_idx, targets)
