@@ -382,6 +382,23 @@ def test_resume_from_foreign_checkpoint_is_an_error(tmp_path, capsys, tiny):
     assert _files(tmp_path) == {"scan.txt", "scan_uv.ckpt"}
 
 
+def test_resume_with_another_preset_is_refused_and_keeps_the_checkpoint(tmp_path, capsys, tiny):
+    """Issue 39: a networks run resumed without --preset ran fast (which writes no
+    checkpoint), exited 0 and deleted the checkpoint; a differing preset or setting is
+    refused like a differing seed, before any work."""
+    V, _ = _grid()
+    src = _write_txt(tmp_path / "scan.txt", V)
+    ckpt = tmp_path / "scan_uv.ckpt"
+    parametrize(V, "free", config=_tiny("networks"), device="cpu", seed=0, checkpoint=ckpt,
+                progress=False)
+    _fails(capsys, ["param", str(src), "--resume", "--quiet"],
+           "scan_uv.ckpt: checkpoint is from a different input, normals, domain, landmarks, "
+           "config or seed (here: preset or settings); delete it to start over")
+    _fails(capsys, ["param", str(src), "--preset", "networks", "--denoise", "2", "--resume",
+                    "--quiet"], "(here: preset or settings)")
+    assert _files(tmp_path) == {"scan.txt", "scan_uv.ckpt"}
+
+
 # --------------------------------------------------------------------------- evaluate
 
 

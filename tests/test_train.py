@@ -500,6 +500,15 @@ def test_resume_from_a_different_run_is_refused(tmp_path, peaks):
             parametrize(other["points"], other["domain"], config=other["config"], device="cpu",
                         seed=other["seed"], landmarks=other["landmarks"], checkpoint=ckpt,
                         resume=True, progress=False)
+    # A run of another preset (the local-mesh map, which writes no checkpoint) is refused
+    # too, naming what differs, before any work (issue 39).
+    with pytest.raises(InputError, match=r"r.ckpt: checkpoint is from a different .* \(here: "
+                                         r"preset or settings\); delete it to start over"):
+        parametrize(V, Disk(), config=get_preset("fast"), device="cpu", seed=0,
+                    checkpoint=ckpt, resume=True, progress=False)
+    with pytest.raises(InputError, match=r"\(here: input, seed\)"):
+        parametrize(V + 1e-3, Disk(), config=cfg, device="cpu", seed=1, checkpoint=ckpt,
+                    resume=True, progress=False)
 
 
 def _leave_marker(path: str) -> dict:

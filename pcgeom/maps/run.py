@@ -230,6 +230,16 @@ def parametrize(
         if landmarks:
             raise InputError("--cut auto does not take landmarks")
         kind = "atlas"
+    # What a checkpoint must share with this run to be resumed, checked before any work: a
+    # checkpoint of a run with another preset or setting is refused as one of another seed
+    # is (a run whose map writes no checkpoint at all cannot be the one it came from).
+    identity = {"fingerprint": fingerprint(P), "config": config.to_dict(), "seed": seed,
+                "domain": domain.to_dict(),
+                "normals": None if normals is None else fingerprint(normals),
+                "landmarks": [[fingerprint(p), fingerprint(q)] for p, q in landmarks]}
+    ckpt = Path(checkpoint) if checkpoint is not None else None
+    state = load_checkpoint(ckpt, identity) if ckpt is not None and resume and ckpt.exists() \
+        else None
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
     if lm_points and not domain.bounded:
         raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
@@ -314,16 +324,9 @@ def parametrize(
         return result(_numpy(U), _numpy(lam_inv), history, start[1])
     stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
     nets = build_networks(config, Xn, domain, data)
-    # What a checkpoint must share with this run to be resumed.
-    identity = {"fingerprint": fingerprint(P), "config": config.to_dict(), "seed": seed,
-                "domain": domain.to_dict(),
-                "normals": None if normals is None else fingerprint(normals),
-                "landmarks": [[fingerprint(p), fingerprint(q)] for p, q in landmarks]}
     history: list[dict] = []
     start_stage = 0
-    ckpt = Path(checkpoint) if checkpoint is not None else None
-    if ckpt is not None and resume and ckpt.exists():
-        state = load_checkpoint(ckpt, identity)
+    if state is not None:
         nets.load_state_dict(state["networks"])
         gen.set_state(state["gen"])
         torch.set_rng_state(state["torch_rng"])

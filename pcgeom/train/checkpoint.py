@@ -19,6 +19,10 @@ __all__ = ["save_checkpoint", "load_checkpoint"]
 
 
 
+# How a differing identity key is named in the refusal.
+_IDENTITY_NAMES = {"fingerprint": "input", "config": "preset or settings"}
+
+
 def save_checkpoint(path, state: dict) -> None:
     """``torch.save(state)`` to ``path`` atomically."""
     write_atomic(Path(path), lambda f: torch.save(state, f))
@@ -44,7 +48,10 @@ def load_checkpoint(path, identity: dict) -> dict:
                          "delete it to start over") from None
     if not isinstance(state, dict) or not set(identity) <= set(state):
         raise InputError(f"{path}: not a pcgeom checkpoint; delete it to start over")
-    if any(state[key] != value for key, value in identity.items()):
+    differ = [_IDENTITY_NAMES.get(key, key) for key, value in identity.items()
+              if state[key] != value]
+    if differ:
         raise InputError(f"{path}: checkpoint is from a different input, normals, domain, "
-                         "landmarks, config or seed; delete it to start over")
+                         f"landmarks, config or seed (here: {', '.join(differ)}); delete it "
+                         "to start over")
     return state
