@@ -252,6 +252,8 @@ def test_npz_bad_normals(tmp_path, bad, match):
 )
 def test_table_with_six_columns_has_normals(tmp_path, name, sep, header):
     V, _, N = _cloud()
+    if not header.startswith("x") and not header.startswith("X"):
+        N = _unit(N)  # a headerless table's columns 4-6 are normals only when unit vectors
     lines = [sep.join(f"{float(c):.17g}" for c in row) for row in np.hstack([V, N])]
     (tmp_path / name).write_text(header + "\n".join(lines) + "\n")
     pc = read_points(tmp_path / name)
@@ -315,16 +317,49 @@ def test_table_incomplete_normals_in_header(tmp_path):
 
 
 def test_normals_false_reads_a_colour_table(tmp_path):
-    # x y z r g b without a header reads as normals; a black point is then a zero normal.
+    # x y z r g b without a header: the colours are not unit vectors, so not normals (issue
+    # 39: they were read as normals and the map turned over 1.92% of its mesh); one warning.
     V, _, _ = _cloud()
     rgb = np.tile([200.0, 10.0, 0.0], (30, 1))
-    rgb[5] = 0.0
+    rgb[5] = 0.0  # a black point: a zero-length "normal" before
     (tmp_path / "rgb.xyz").write_text("".join(_fmt(r) + "\n" for r in np.hstack([V, rgb])))
-    with pytest.raises(InputError, match=r"rgb\.xyz: normal of row 5 has zero length"):
-        read_points(tmp_path / "rgb.xyz")
+    with pytest.warns(UserWarning, match=r"rgb\.xyz: columns 4-6 are not unit vectors "
+                                         r"\(lengths 0 to 200\), so not read as normals; name "
+                                         r"them in a header row \(x y z nx ny nz\) to use them"
+                      ) as caught:
+        pc = read_points(tmp_path / "rgb.xyz")
+    assert len(caught) == 1 and pc.normals is None
+    np.testing.assert_array_equal(pc.points, V)
     pc = read_points(tmp_path / "rgb.xyz", normals=False)
     np.testing.assert_array_equal(pc.points, V)
     assert pc.normals is None
+
+
+def test_headerless_normals_within_the_tolerance_are_read_and_past_it_ignored(tmp_path):
+    """Three-decimal unit normals are normals; one row 3% long makes the columns not normals."""
+    V, _, N = _cloud()
+    N = np.round(_unit(N), 3)
+    (tmp_path / "u.xyz").write_text("".join(_fmt(r) + "\n" for r in np.hstack([V, N])))
+    np.testing.assert_allclose(read_points(tmp_path / "u.xyz").normals, _unit(N), atol=1e-15)
+    N[7] *= 1.03
+    (tmp_path / "u.xyz").write_text("".join(_fmt(r) + "\n" for r in np.hstack([V, N])))
+    with pytest.warns(UserWarning, match=r"u\.xyz: columns 4-6 are not unit vectors"):
+        assert read_points(tmp_path / "u.xyz").normals is None
+
+
+def test_cli_says_a_colour_table_has_no_normals_in_one_line(tmp_path, capsys):
+    from pcgeom import cli
+
+    V, _ = peaks_surface("peaks3", n_side=10)
+    rgb = np.tile([120.0, 30.0, 250.0], (len(V), 1))
+    (tmp_path / "rgb.xyz").write_text("".join(_fmt(r) + "\n" for r in np.hstack([V, rgb])))
+    assert cli.main(["param", str(tmp_path / "rgb.xyz"), "--quiet", "--json"]) == 0
+    captured = capsys.readouterr()
+    lines = [ln for ln in captured.err.splitlines() if "columns 4-6" in ln]
+    assert lines == [f"pcgeom: warning: {tmp_path / 'rgb.xyz'}: columns 4-6 are not unit vectors "
+                     "(lengths 279 to 279), so not read as normals; name them in a header row "
+                     "(x y z nx ny nz) to use them"]
+    assert '"normals": "estimated"' in captured.out
 
 
 @pytest.mark.parametrize("ext", [".ply", ".npz", ".csv", ".las"])

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 from dataclasses import InitVar, dataclass
 from pathlib import Path
 from typing import BinaryIO
@@ -182,7 +183,8 @@ def _read_table(
     """Numeric table: whitespace or comma separated, ``#`` comments, x y z first.
 
     Normals: with a header row, the columns it names ``nx ny nz`` (or ``normal_x`` ...), if
-    any; without one, columns 4-6 of a table of exactly six columns. Other columns are ignored.
+    any; without one, columns 4-6 of a table of exactly six columns when they are unit vectors
+    (:func:`_bare_normals`). Other columns are ignored.
     """
     try:
         text = path.read_text(encoding="utf-8")
@@ -213,8 +215,11 @@ def _read_table(
     if not with_normals:
         return table[:, :3], None
     if header is None:
-        # Six bare columns are x y z nx ny nz, the layout scanners and Open3D export.
-        return table[:, :3], (table[:, 3:6] if table.shape[1] == 6 else None)
+        # Six bare columns are x y z nx ny nz, the layout scanners and Open3D export, when
+        # columns 4-6 are unit vectors; otherwise they are something else (x y z r g b).
+        if table.shape[1] != 6:
+            return table[:, :3], None
+        return table[:, :3], _bare_normals(table[:, 3:6], name)
     columns = _normal_columns(header, name)
     if columns is None:
         return table[:, :3], None
@@ -222,6 +227,26 @@ def _read_table(
         raise InputError(f"{name}: header names {len(header)} columns but rows have "
                          f"{table.shape[1]}")
     return table[:, :3], table[:, [header.index(c) for c in columns]]
+
+
+# How far from 1 the length of every row of a headerless table's columns 4-6 may be for them
+# to be read as normals (a text file's normals written to 3 decimals are within 0.003).
+UNIT_TOLERANCE = 0.02
+
+
+def _bare_normals(columns: np.ndarray, name: str) -> np.ndarray | None:
+    """Columns 4-6 of a headerless six-column table as normals when every row is a unit
+    vector (length within ``UNIT_TOLERANCE`` of 1); otherwise None, with one warning line:
+    colours (``x y z r g b``) or other values are not normals."""
+    length = np.linalg.norm(columns, axis=1)
+    if np.all(np.abs(length - 1.0) <= UNIT_TOLERANCE):  # NaN rows fail: validated as normals
+        return columns
+    if not np.isfinite(length).all():
+        return columns  # validate_normals names the row with NaN or inf
+    warnings.warn(f"{name}: columns 4-6 are not unit vectors (lengths {length.min():.3g} to "
+                  f"{length.max():.3g}), so not read as normals; name them in a header row "
+                  "(x y z nx ny nz) to use them", UserWarning, stacklevel=2)
+    return None
 
 
 def _is_number(token: str) -> bool:
@@ -310,9 +335,9 @@ def read_points(path, min_points: int = 10, *, normals: bool = True) -> PointClo
         - ``.xyz``/``.txt``/``.csv``: numeric table, whitespace or comma separated, first three
           columns x y z, ``#`` comments and one header row of names allowed. Normals: with a
           header row, the columns it names ``nx ny nz`` (or ``normal_x`` ...), if it names them;
-          without one, columns 4-6 of a table of exactly six columns (x y z nx ny nz). Other
-          columns are ignored (so a headerless six-column x y z r g b table must get a header,
-          or be read with ``normals=False``).
+          without one, columns 4-6 of a table of exactly six columns (x y z nx ny nz) when
+          every row of them is a unit vector (a headerless x y z r g b table: its colours are
+          not, and are ignored with a warning). Other columns are ignored.
         - ``.npz``: points under key ``"points"``, ``"V"`` or ``"vertices"``, else its only
           array besides faces and normals; faces optionally under ``"faces"`` or ``"F"``;
           normals optionally under ``"normals"``.
@@ -341,6 +366,12 @@ def read_points(path, min_points: int = 10, *, normals: bool = True) -> PointClo
         are incomplete (``nx ny`` without ``nz``) or come in two sets.
     ImportError
         A ``.las``/``.laz`` file without laspy (or ``.laz`` without lazrs) installed.
+
+    Warns
+    -----
+    UserWarning
+        A headerless six-column table whose columns 4-6 are not unit vectors (colours): they
+        are not read as normals.
     """
     name = os.fspath(path)
     path = Path(path)
