@@ -527,3 +527,32 @@ def test_cli_measures_hole_widths_on_the_points_a_denoised_map_was_made_of(tmp_p
     widths = json.loads(capsys.readouterr().out)["hole_widths"]
     on_fitted = detect_boundary(U, points=fitted).to_dict()["widths"]
     assert widths == on_fitted != detect_boundary(U, points=P).to_dict()["widths"]
+
+
+def test_cli_maps_with_the_files_normals_as_param_does(tmp_path, capsys):
+    """Issue 39: without --map, boundary mapped the bare points (normals estimated) although
+    'pcgeom param' maps with the file's normals; the same file must give the same loops
+    with and without --map, and --normals ignore reads none."""
+    _, U, _, _ = _flat_cloud(tmp_path)
+    P = np.column_stack([U, 0.1 * U[:, 0]])
+    N = np.tile(np.array([-0.1, 0.0, 1.0]) / np.hypot(0.1, 1.0), (len(P), 1))
+    src = tmp_path / "oriented.xyz"
+    np.savetxt(src, np.column_stack([P, N]))
+    map_path = tmp_path / "oriented_uv.npz"
+    assert cli.main(["param", str(src), "--out", str(map_path), "--quiet", "--json"]) == 0
+    capsys.readouterr()
+
+    loops, normals = {}, {}
+    for label, extra in (("map", ["--map", str(map_path)]), ("own", []),
+                         ("ignore", ["--normals", "ignore"])):
+        out = tmp_path / f"{label}.json"
+        assert cli.main(["boundary", str(src), "--out", str(out), "--quiet", "--json",
+                         *extra]) == 0
+        normals[label] = json.loads(capsys.readouterr().out)["normals"]
+        loops[label] = json.loads(out.read_text())["loops"]
+    assert normals == {"map": "input", "own": "input", "ignore": "estimated"}
+    assert loops["own"] == loops["map"] and len(loops["own"]) == 2
+
+    _fails(capsys, ["boundary", str(src), "--map", str(map_path), "--normals", "ignore",
+                    "--out", str(tmp_path / "x.json")],
+           "--normals applies when boundary maps the cloud itself; with --map")

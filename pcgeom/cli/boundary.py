@@ -11,9 +11,11 @@ import numpy as np
 
 from ..apps.boundary import DEFAULT_MIN_LOOP, DEFAULT_MIN_WIDTH, detect_boundary
 from ..config import get_preset
+from ..errors import InputError
 from ..io import check_writable, read_points
 from ..io.atomic import write_atomic
 from ..maps import parametrize
+from .param import NORMALS_CHOICES, _map_record, _normals_used
 from ._common import (EXIT_OK, add_cloud_and_map, add_output_options, distinct_paths,
                       load_free_map, run_command, standalone_parser)
 
@@ -29,7 +31,8 @@ examples:
   pcgeom boundary scan.ply --out scan_loops.json
       maps the cloud first (free boundary, preset fast), then detects its loops
   pcgeom boundary scan.ply --map scan_uv.npz --out scan_loops.json --plot scan_loops.png
-      reuses a map written by 'pcgeom param scan.ply' (no --domain)
+      reuses a map written by 'pcgeom param scan.ply' (no --domain): the same loops as
+      without --map, since both map the cloud the same way (its normals included)
   pcgeom boundary scan.ply --map scan_uv.npz --h 0.02 --out loops.json --quiet --json
       the paper's rule: remove every triangle with an edge longer than 0.02 (map units; pick
       2-3 times the map's point spacing, docs/choosing_parameters.md)
@@ -43,9 +46,11 @@ examples:
 LOOPS.json holds {{"loops": [[i0, i1, ...], ...], "h": ..., ...}}: each loop as rows of INPUT
 (from 0), outer loop first (counter-clockwise in the map), then the holes by size. Without
 --h, triangles are judged against the local point spacing of the map, which needs no scale
-(see pcgeom.apps.boundary). Loops of fewer than {DEFAULT_MIN_LOOP} points are dropped as sampling gaps.
+(see pcgeom.apps.boundary). Without --map the cloud is mapped as 'pcgeom param INPUT' maps it
+(preset fast, seed 0, the file's normals unless --normals ignore). Loops of fewer than {DEFAULT_MIN_LOOP} points are dropped as sampling gaps.
 Each hole's width on the surface (its 3D inradius estimate over the local point spacing) is
-reported; --min-width drops the narrower ones. Faces in INPUT are never used.
+reported; --min-width drops the narrower ones. Faces in INPUT never make loops (they shape the
+map only, as in 'pcgeom param').
 """
 
 
@@ -90,6 +95,10 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="remove every triangle with an edge longer than H in the map (the "
                         "paper's rule; default: a rule from the local point spacing)")
     add_hole_options(p)
+    p.add_argument("--normals", choices=NORMALS_CHOICES, default="auto",
+                   help="without --map: auto: map with the file's oriented normals (PLY nx ny "
+                        "nz, NPZ 'normals', six-column XYZ, LAS) when it has them, as 'pcgeom "
+                        "param' does; ignore: do not read them (default: auto)")
     add_output_options(p, "LOOPS.json", "the loops, as JSON", required=True)
     p.add_argument("--plot", metavar="LOOPS.png",
                    help="also draw the map with the loops and the removed triangles")
@@ -99,14 +108,20 @@ def configure(p: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     """Run ``pcgeom boundary`` on parsed arguments; returns the exit status."""
     # Everything that can be wrong with the request is checked before any training.
-    points = read_points(args.input).points  # validated: finite, >= 10 distinct, a surface
+    if args.map is not None and args.normals != "auto":
+        raise InputError("--normals applies when boundary maps the cloud itself; with --map, "
+                         "the map's own normals were chosen by 'pcgeom param --normals'")
+    # validated: finite, >= 10 distinct, a surface; with the file's normals (as param reads it)
+    cloud = read_points(args.input, normals=args.map is None and args.normals == "auto")
+    points = cloud.points
     out = check_writable(args.out, "json")
     plot = check_writable(args.plot, "png") if args.plot else None
     distinct_paths({"INPUT": args.input, "--map": args.map}, {"out": out, "plot": plot})
     if args.map is not None:
         result = load_free_map(args, points, "boundary detection")
     else:
-        result = parametrize(points, "free", config=get_preset("fast"),
+        # As 'pcgeom param INPUT' maps it, so that --map of that map gives the same loops.
+        result = parametrize(cloud, "free", config=get_preset("fast"), seed=0,
                              progress=not args.quiet)
 
     # A denoised map was made of the fitted points: the holes' widths are measured on them.
@@ -136,6 +151,10 @@ def run(args) -> int:
         "loop_points": [len(loop) for loop in found.loops],
         "hole_widths": found.to_dict()["widths"],
         "n_dropped": len(found.dropped),
+        # "input", "estimated" or "none": the normals the map was made with (of a --map: as
+        # its history records them, None when it does not)
+        "normals": (_normals_used(result.history, cloud.normals is not None) if args.map is None
+                    else _map_record(result.history).get("normals")),
         "mapped_seconds": None if args.map is not None else float(result.seconds),
     }
     if args.json:
