@@ -18,8 +18,10 @@ import csv
 import json
 import os
 import signal
+import socket
 from pathlib import Path
 
+import numpy as np
 import pytest
 from distributed.diagnostics.plugin import WorkerPlugin
 
@@ -215,7 +217,39 @@ def test_map_scan_reports_bad_input_in_its_row(tmp_path):
     row = map_scan(_job(bad, tmp_path))
     assert row["status"] == "error"
     assert row["error"] == f"{bad}: 1 points, need at least 10"
-    assert set(row) == set(SUMMARY_COLUMNS)
+    assert set(row) == {*SUMMARY_COLUMNS, "warnings"} and row["warnings"] == []
+
+
+def test_map_scan_returns_its_warnings_in_one_line_each(tmp_path):
+    """A worker's warnings go back in the row (issue 39: raw UserWarning lines on the
+    workers' stderr), once each."""
+    V, _ = peaks_surface("peaks3", n_side=12)
+    scan = tmp_path / "rgb.xyz"
+    np.savetxt(scan, np.column_stack([V, np.tile([10.0, 200.0, 30.0], (len(V), 1))]))
+    row = map_scan(_job(scan, tmp_path))
+    assert row["status"] == "ok"
+    assert [w for w in row["warnings"] if "columns 4-6" in w] == [
+        f"{scan}: columns 4-6 are not unit vectors (lengths 202 to 202), so not read as "
+        "normals; name them in a header row (x y z nx ny nz) to use them"]
+
+
+def test_unreachable_scheduler_exits_2_and_leaves_no_folder(tmp_path, capsys, monkeypatch):
+    """Issue 39: exit 1 and a folder holding a header-only summary.csv before."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(batch_app, "CONNECT_TIMEOUT", "1s")
+    _write_scans(tmp_path / "scans", n=1, broken=False)
+    with socket.socket() as sock:  # a port nobody listens on
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    assert_cli_fails(capsys, ["batch", "scans/*", "--out", "maps", "--scheduler",
+                              f"tcp://127.0.0.1:{port}"],
+                     f"cannot connect to the Dask scheduler at tcp://127.0.0.1:{port} (")
+    assert not Path("maps").exists()
+    with pytest.raises(InputError, match=r"cannot connect to the Dask scheduler at "
+                                         r"tcp://127\.0\.0\.1:\d+ \(.*\); is it running, and "
+                                         r"is the address right\?"):
+        run_batch(["scans/*"], "maps", scheduler=f"tcp://127.0.0.1:{port}")
+    assert not Path("maps").exists()
 
 
 # --------------------------------------------------------------------------- clusters
@@ -345,17 +379,31 @@ def test_killed_worker_resumes_and_every_map_is_written_once(tmp_path):
     assert sorted(r["name"] for r in _summary(out)) == sorted([*(p.stem for p in scans), "flaky"])
 
 
-def test_batch_reconstructs_in_worker_threads(tmp_path, capsys, monkeypatch, tiny):
+def test_batch_reconstructs_in_worker_threads(tmp_path, capfd, monkeypatch, tiny):
     """gmsh meshes inside a Dask worker's thread (issue 39: it installed a SIGINT handler
     there, "signal only works in main thread"); one worker process with two threads meshes
-    two scans at once, serialised by the mesher's lock."""
+    two scans at once, serialised by the mesher's lock. The scans' warnings come back as one
+    'pcgeom: warning: NAME: ...' line each, none with --quiet, never raw UserWarning lines."""
     monkeypatch.chdir(tmp_path)
-    _write_scans(tmp_path / "scans", n=2, broken=False)
+    _write_scans(tmp_path / "scans", n=1, broken=False)
+    V = read_points(tmp_path / "scans" / "scan0.ply").points * 1.05
+    np.savetxt(tmp_path / "scans" / "rgb.xyz",  # colours, not normals: one warning
+               np.column_stack([V, np.tile([10.0, 200.0, 30.0], (len(V), 1))]))
     argv = ["batch", "scans/*", "--out", "maps", "--workers", "1", "--threads-per-worker", "2",
-            "--reconstruct", "--target-vertices", "150", "--json"]
-    assert cli.main(argv) == 0
-    report = json.loads(capsys.readouterr().out)
+            "--reconstruct", "--target-vertices", "150"]
+    assert cli.main([*argv, "--quiet", "--json"]) == 0
+    out, err = capfd.readouterr()  # the worker processes' stderr too
+    report = json.loads(out)
     assert (report["n_ok"], report["n_error"]) == (2, 0)
-    for k in range(2):
-        mesh = read_points(Path("maps") / f"scan{k}_mesh.ply")
+    for name in ("scan0", "rgb"):
+        mesh = read_points(Path("maps") / f"{name}_mesh.ply")
         assert 75 <= len(mesh.points) <= 300
+    assert "UserWarning" not in err and "pcgeom: warning" not in err
+
+    Path("maps/rgb_mesh.ply").unlink()  # the rerun meshes rgb again, not quiet
+    assert cli.main(argv) == 0
+    err = capfd.readouterr().err
+    assert "UserWarning" not in err
+    assert [ln for ln in err.splitlines() if "columns 4-6" in ln] == [
+        "pcgeom: warning: rgb: scans/rgb.xyz: columns 4-6 are not unit vectors (lengths 202 to "
+        "202), so not read as normals; name them in a header row (x y z nx ny nz) to use them"]

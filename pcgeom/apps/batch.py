@@ -48,6 +48,7 @@ import glob
 import io
 import os
 import sys
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -272,12 +273,26 @@ def map_scan(job: dict) -> dict:
     Returns
     -------
     dict
-        The scan's summary row (:data:`SUMMARY_COLUMNS`). Bad input (``ValueError``) gives an
-        ``error`` row; any other exception propagates, for Dask to retry.
+        The scan's summary row (:data:`SUMMARY_COLUMNS`), plus ``warnings``: the one-line
+        messages of the warnings the scan raised (in order, each once). Bad input
+        (``ValueError``) gives an ``error`` row; any other exception propagates, for Dask to
+        retry.
     """
     import torch
 
     torch.set_num_threads(job["threads"])  # N workers x T threads must not oversubscribe
+    # The scan's warnings (a map that turns triangles over, columns that are not normals, ...)
+    # go back to the client in the row, which issues them as its own: a worker's stderr would
+    # show raw UserWarning lines with their source, --quiet or not.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        row = _map_scan(job)
+    row["warnings"] = list(dict.fromkeys(_one_line(w.message) for w in caught))
+    return row
+
+
+def _map_scan(job: dict) -> dict:
+    """:func:`map_scan`'s work, its warnings left to the caller."""
     worker = _worker_name()
     try:
         config = ParamConfig.from_dict(job["config"])
@@ -369,7 +384,7 @@ def _plan(paths: list[Path], job_base: dict, config: ParamConfig, domain: Domain
     for path in paths:
         job = {**job_base, "name": path.stem, "input": os.fspath(path)}
         try:
-            cloud = read_points(path)
+            cloud = read_points(path, normals=False)  # the worker reads (and checks) normals
         except InputError as exc:
             rows.append(_row(job, "error", error=_one_line(exc)))
             continue
@@ -405,16 +420,21 @@ def _failure_row(job: dict, exc: BaseException, allowed_failures: int | None) ->
     return _row(job, "error", error=message)
 
 
+CONNECT_TIMEOUT = "10s"
+"""How long the client tries to reach a ``scheduler`` address before giving up."""
+
+
 def _connect(scheduler: str | None, workers: int, retries: int):
     """(client, cluster or None, allowed_failures) for a new LocalCluster or an address."""
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
         try:
-            client = Client(scheduler, timeout="10s")
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
         except (OSError, TimeoutError) as exc:
-            raise OSError(f"cannot connect to the Dask scheduler at {scheduler}: "
-                          f"{_one_line(exc)}") from None
+            raise InputError(f"cannot connect to the Dask scheduler at {scheduler} "
+                             f"({_one_line(exc)}); is it running, and is the address right?"
+                             ) from None
         return client, None, None
     # One scan at a time per worker process; torch gets the worker's threads (map_scan).
     # A port of 0 lets two batches on one machine each get a dashboard.
@@ -476,8 +496,12 @@ def run_batch(inputs: Sequence[str], out_dir, *, domain: Domain | str | dict = "
         Bad request, before any work: no input matched, a missing or unsupported input,
         two inputs with one name, ``out_dir`` a file or not writable, loops or a mesh asked
         of a bounded domain, a count out of range, ``workers`` with ``scheduler``.
-    OSError
-        The scheduler cannot be reached.
+        The scheduler cannot be reached (before the output folder is made).
+
+    Warns
+    -----
+    UserWarning
+        Each scan's warnings, as ``"NAME: message"``, when its task returns.
     """
     domain = get_domain(domain)
     config = get_preset(config) if isinstance(config, str) else config
@@ -490,19 +514,28 @@ def run_batch(inputs: Sequence[str], out_dir, *, domain: Domain | str | dict = "
                          target_vertices=target_vertices, scheduler=scheduler, workers=workers,
                          threads_per_worker=threads_per_worker, retries=retries)
     paths = collect_inputs(inputs)
-    out.mkdir(parents=True, exist_ok=True)
     summary = out / SUMMARY_NAME
     job_base = {"out_dir": os.fspath(out.absolute()), "config": config.to_dict(),
                 "domain": domain.to_dict(), "seed": seed, "device": device,
                 "boundary": boundary, "reconstruct": reconstruct,
                 "target_vertices": target_vertices, "threads": threads_per_worker}
     rows, jobs = _plan(paths, job_base, config, domain, seed)
-    write_summary(summary, [r for r in rows if r is not None])
     dashboard = None
-    if jobs:
-        dashboard = _run_jobs(rows, jobs, summary, scheduler=scheduler,
-                              workers=workers or _default_workers(threads_per_worker),
-                              retries=retries, progress=progress)
+    # The cluster before the output folder: an unreachable scheduler leaves nothing behind.
+    connection = (_connect(scheduler, workers or _default_workers(threads_per_worker), retries)
+                  if jobs else None)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        write_summary(summary, [r for r in rows if r is not None])
+        if jobs:
+            dashboard = _run_jobs(rows, jobs, summary, connection, retries=retries,
+                                  progress=progress)
+    finally:
+        if connection is not None:
+            client, cluster, _ = connection
+            client.close()
+            if cluster is not None:
+                cluster.close()
     try:
         (out / ".checkpoints").rmdir()  # only when empty: no scan left a stage behind
     except OSError:
@@ -511,14 +544,15 @@ def run_batch(inputs: Sequence[str], out_dir, *, domain: Domain | str | dict = "
     return BatchReport(rows=rows, summary=summary, dashboard=dashboard, counts=counts)
 
 
-def _run_jobs(rows: list[dict | None], jobs: list[dict], summary: Path, *, scheduler,
-              workers: int, retries: int, progress: bool) -> str:
-    """Submit ``jobs``, fill their rows as they finish; returns the dashboard URL."""
+def _run_jobs(rows: list[dict | None], jobs: list[dict], summary: Path, connection, *,
+              retries: int, progress: bool) -> str:
+    """Submit ``jobs`` on ``connection`` (:func:`_connect`'s), fill their rows as they
+    finish, issue each scan's warnings as ``"NAME: message"``; returns the dashboard URL."""
     from distributed import as_completed
 
     # Rows still None are the jobs', in the same order.
     index = dict(zip((job["name"] for job in jobs), (i for i, r in enumerate(rows) if r is None)))
-    client, cluster, allowed = _connect(scheduler, workers, retries)
+    client, _, allowed = connection
     dashboard = client.dashboard_link
     bar = Progress(len(rows), "batch: scans", enabled=progress, unit="scan",
                    initial=len(rows) - len(jobs), milestones=True)
@@ -533,6 +567,8 @@ def _run_jobs(rows: list[dict | None], jobs: list[dict], summary: Path, *, sched
             job = job_of[future.key]
             if future.status == "finished":
                 row = future.result()
+                for message in row.pop("warnings", ()):
+                    warnings.warn(f"{job['name']}: {message}", UserWarning, stacklevel=2)
             elif future.cancelled():  # e.g. the scheduler went away
                 row = _row(job, "error", error="cancelled: the Dask scheduler dropped the task")
             else:
@@ -547,7 +583,4 @@ def _run_jobs(rows: list[dict | None], jobs: list[dict], summary: Path, *, sched
         for future in futures:
             if not future.done():  # interrupted: nothing may keep running for this batch
                 future.cancel()
-        client.close()
-        if cluster is not None:
-            cluster.close()
     return dashboard

@@ -6,6 +6,7 @@ import argparse
 import json
 import os
 import sys
+import warnings
 
 from ..apps.batch import SUMMARY_COLUMNS, run_batch
 from ..config import PRESETS, get_preset
@@ -40,7 +41,9 @@ optional NAME_loops.json and NAME_mesh.ply, and a row in DIR/summary.csv:
 {', '.join(SUMMARY_COLUMNS)}.
 A scan is skipped when its map exists and was made from the same points, preset, domain and
 seed. A scan that fails gets its one-line error in its row and the others go on; the exit
-status is then 1. A scan whose worker dies is retried on another worker; a map trained in
+status is then 1. Each scan's warnings are printed as one line each, 'pcgeom: warning: NAME:
+...' (not with --quiet). An unreachable --scheduler is refused (exit 2) before DIR is made.
+A scan whose worker dies is retried on another worker; a map trained in
 stages resumes from its last stage checkpoint, kept in DIR/.checkpoints/.
 """
 
@@ -87,6 +90,8 @@ def run(args) -> int:
     if args.workers is not None and args.scheduler is not None:
         raise InputError("--workers applies to the local cluster; the cluster at --scheduler "
                          "has its own workers")
+    if args.quiet:  # the scans' warnings ("NAME: ...", one line each) too
+        warnings.simplefilter("ignore", UserWarning)
     report = run_batch(args.inputs, args.out, domain=get_domain(args.domain),
                        config=get_preset(args.preset), seed=args.seed, boundary=args.boundary,
                        reconstruct=args.reconstruct,
