@@ -1,4 +1,5 @@
-"""``cut="auto"`` measured: analytic tori (5k, 20k) and the shared closed head (genus 0).
+"""``cut="auto"`` measured: analytic tori (5k, 20k), a genus-2 implicit surface, the shared
+closed head (genus 0) and the shared open surfaces (seams from their holes to their rim).
 
 For each: seams (genus, loops, length over sqrt(area)), flips, overlap (shapely union of the
 chart triangles), scale-factor spread (95th/5th percentile), time; and the angle error over
@@ -55,7 +56,8 @@ def run(name, P, faces):
     rec = r.history[-1]
     U = r.corner_uv.reshape(-1, 2)
     ov = overlap_area(U, np.arange(len(U)).reshape(-1, 3))
-    line = (f"{name:28s} {len(P):6d}  g{rec['seams']['genus']} loops {rec['seams']['loops']}  "
+    line = (f"{name:28s} {len(P):6d}  g{rec['seams']['genus']} b{rec['seams'].get('boundary_loops', 0)} "
+            f"paths {rec['seams']['loops']}  "
             f"flips {rec['flips']['count']}  overlap {ov:.1e}  spread {rec['stretch']:.2f}  "
             f"seam/sqrtA {rec['seam_length']:.2f}  {sec:.1f} s")
     if faces is not None:
@@ -105,10 +107,12 @@ def main():
     for n in (5000, 20000):
         P = genus2(n)
         run("genus-2 implicit (no faces)", P, None)
-    head = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "closed_david_head_choi.ply"
-    if head.exists():
-        c = read_points(head)
-        run("closed_david_head_choi", c.points, c.faces)
+    data = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+    for name in ("closed_david_head_choi", "face_3holes_small_choi", "peaks_7holes_choi",
+                 "face_human_choi", "peaks_three_cgal"):
+        if (data / f"{name}.ply").exists():
+            c = read_points(data / f"{name}.ply")
+            run(name, c.points, c.faces)
 
 
 if __name__ == "__main__":

@@ -109,16 +109,26 @@ def test_open_disk_gets_no_seam():
     assert rec["cut_loops"] == 1 and (r.uv >= 0).all() and (r.uv <= 1).all()
 
 
-def test_open_errors():
+@pytest.mark.parametrize("holes", [1, 2])
+def test_open_torus_and_annulus_cut_into_a_disk(holes):
+    """Open meshes: the boundary contracted to the root, 2g + b - 1 paths from the boundary
+    to the boundary; the true mesh cut is a disk, and so is the cloud's."""
     s = closed_surface("torus", 2000)
-    P = s.points
-    with pytest.raises(InputError, match="open cloud with handles is not built yet"):
-        parametrize(P[np.linalg.norm(P - P[np.argmax(P[:, 0])], axis=1) > 0.8], cut="auto",
-                    progress=False)
+    P, F = s.points, s.faces
+    for k, c in enumerate([P[np.argmax(P[:, 0])], P[np.argmin(P[:, 0])]][:holes]):
+        F = F[(np.linalg.norm(P - c, axis=1) > 0.5)[F].all(axis=1)]
+    E, cut, info = cut_graph(P, F)
+    assert info["genus"] == 1 and info["boundary_loops"] == holes
+    assert info["loops"] == 2 + holes - 1
+    Fc, _ = cut_open(F, E, cut, len(P))
+    assert euler_characteristic(Fc) == 1 and len(boundary_loops(Fc)) == 1
     e = closed_surface("ellipsoid", 2000)
     z = e.points[:, 2]
-    with pytest.raises(InputError, match="open cloud with 2 boundary loops is not built yet"):
-        parametrize(e.points[np.abs(z) < 0.8 * np.abs(z).max()], cut="auto", progress=False)
+    r = parametrize(e.points[np.abs(z) < 0.8 * np.abs(z).max()], cut="auto", progress=False)
+    rec = r.history[-1]
+    assert rec["seams"]["boundary_loops"] == 2 and rec["seams"]["loops"] == 1
+    assert rec["cut_euler"] == 1 and rec["cut_loops"] == 1
+    assert rec["flips"]["count"] == 0 and not rec["overlap"]
 
 
 @pytest.mark.parametrize("kwargs, message", [

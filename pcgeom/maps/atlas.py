@@ -7,7 +7,9 @@ and packed into the unit square (a texture atlas).
    genus).
 2. **Seams** (:mod:`pcgeom.maps.seams`): on a closed mesh of genus ``g >= 1``, the
    tree-cotree cut graph of short loops; at genus 0, the shortest path between two far
-   points. An open mesh with one boundary loop and no handle is a disk already: no seam.
+   points; an open mesh with handles or several boundary loops, the tree-cotree paths from
+   its boundary to its boundary (``2g + b - 1`` of them). An open mesh with one boundary loop
+   and no handle is a disk already: no seam.
 3. **The chart**: the mesh cut open along the seams (seam vertices duplicated), its free LSCM
    map (``igl.lscm``, two boundary vertices far apart pinned: the free-boundary minimizer up to
    a similarity), mirrored if it came out clockwise; where it turns triangles over, the
@@ -61,15 +63,6 @@ GAP = 5
 """Boundary loops of at most this many points are gaps, always filled: a hole about one
 spacing wide, which the sampling leaves (the repaired local meshes of 2k-point clouds with
 holes of 14-24 points keep loops of 3-4 points besides them)."""
-
-OPEN_HANDLES = ("--cut auto on an open cloud with handles is not built yet (its local mesh "
-                "has genus {genus}, boundary loops: {loops}); map a closed cloud, or an "
-                "open one without handles")
-"""The message of the :class:`InputError` for an open cloud with handles."""
-
-OPEN_LOOPS = ("--cut auto on an open cloud with {loops} boundary loops is not built yet; "
-              "without --cut, the free map holds it")
-
 
 def check_cut(cut: str, max_stretch, domain_name: str) -> float:
     """Validate ``cut`` and ``max_stretch`` (before any work); returns the bound as a float.
@@ -223,8 +216,7 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
     Raises
     ------
     InputError
-        As :func:`pcgeom.maps.localmesh.mesh_cloud` (not a surface); an open cloud with
-        handles or with several boundary loops (not built yet).
+        As :func:`pcgeom.maps.localmesh.mesh_cloud` (not a surface).
     """
     from scipy.spatial import cKDTree
 
@@ -238,13 +230,8 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
     index, F = _mesh_of(Xn, mesh)
     V = Xn[index]
     topo = mesh_topology(F)
-    if not topo["closed"]:
-        if topo["genus"] != 0:
-            raise InputError(OPEN_HANDLES.format(genus=topo["genus"],
-                                                 loops=topo["boundary_loops"]))
-        if topo["boundary_loops"] != 1:
-            raise InputError(OPEN_LOOPS.format(loops=topo["boundary_loops"]))
-        Fc, origin = F, np.arange(len(V))
+    if not topo["closed"] and topo["genus"] == 0 and topo["boundary_loops"] == 1:
+        Fc, origin = F, np.arange(len(V))  # a disk already
         seams = {"genus": 0, "loops": 0, "length": 0.0}
     else:
         E, cut, seams = cut_graph(V, F, roots=SEAM_ROOTS)

@@ -18,6 +18,13 @@ For genus 0 there is no loop: the cut is the shortest path between two far verti
 vertex farthest from the centroid and the one farthest from it along the mesh), so that the
 disk has a boundary.
 
+A mesh with ``b`` boundary loops: the boundary is contracted to the root (the tree is the
+shortest-path forest from all its vertices, the dual tree does not cross it), and the
+``|E_inner| - (|V| - |V_rim|) - (|F| - 1) = 2g + b - 1`` edges left each close a path from
+the boundary to the boundary; with the boundary they cut the surface into a disk (the
+paths join the ``b`` loops and cut the ``g`` handles). Pruning keeps branches that end on the
+boundary.
+
 **Cutting** (:func:`cut_open`): the corners around each vertex are split into wedges at the
 cut edges; each wedge is one vertex of the cut mesh (a seam vertex gets one per side; a
 vertex where ``k`` cut edges meet, ``k`` of them), its 3D position that of the vertex it came
@@ -61,12 +68,15 @@ def _graph(V: np.ndarray, E: np.ndarray) -> sp.csr_matrix:
                          shape=(n, n)).tocsr()
 
 
-def _prune(E: np.ndarray, cut: np.ndarray, n: int) -> np.ndarray:
+def _prune(E: np.ndarray, cut: np.ndarray, n: int, anchored: np.ndarray | None = None
+           ) -> np.ndarray:
     """``cut`` (E,) bool less its dangling branches: edges at a vertex of degree one go,
-    until every cut vertex has degree two or more."""
+    until every cut vertex has degree two or more (``anchored`` (n,) bool: vertices on the
+    mesh's boundary, which hold a branch that ends there)."""
     cut = cut.copy()
+    extra = np.zeros(n, dtype=np.int64) if anchored is None else 2 * anchored.astype(np.int64)
     while True:
-        deg = np.bincount(E[cut].ravel(), minlength=n)
+        deg = np.bincount(E[cut].ravel(), minlength=n) + extra
         dangling = cut & ((deg[E[:, 0]] == 1) | (deg[E[:, 1]] == 1))
         if not dangling.any():
             return cut
@@ -100,7 +110,7 @@ def cut_graph(V: np.ndarray, F: np.ndarray, *, roots: int = 1
     F = np.asarray(F, dtype=np.int64)
     n, m = len(V), len(F)
     E = unique_edges(F)
-    chi = n - len(E) + m
+    chi = len(np.unique(F)) - len(E) + m  # over the vertices the triangles use
     genus = (2 - chi) // 2
     G = _graph(V, E)
     length = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
@@ -111,7 +121,19 @@ def cut_graph(V: np.ndarray, F: np.ndarray, *, roots: int = 1
         for a, b in zip(path[:-1], path[1:]):
             cut[index[min(a, b) * n + max(a, b)]] = True
 
-    if genus == 0:
+    uses = np.bincount(np.searchsorted(E[:, 0] * n + E[:, 1],
+                                       _keys(half_edges(F), n)), minlength=len(E))
+    rim = uses == 1
+    if rim.any():  # the boundary: one root for all its vertices (contracted)
+        on_rim = np.zeros(n, dtype=bool)
+        on_rim[E[rim].ravel()] = True
+        from ..mesh import boundary_loops
+
+        b = len(boundary_loops(F))
+        cut, info = _tree_cotree(V, F, E, G, length, np.flatnonzero(on_rim), (2 - chi - b) // 2,
+                                 on_rim=on_rim, rim=rim)
+        info["boundary_loops"] = b
+    elif genus == 0:
         a = int(np.argmax(np.linalg.norm(V - V.mean(axis=0), axis=1)))
         dist, pred = dijkstra(G, indices=a, return_predecessors=True)
         b = int(np.argmax(np.where(np.isfinite(dist), dist, -1)))
@@ -137,8 +159,17 @@ def cut_graph(V: np.ndarray, F: np.ndarray, *, roots: int = 1
     return E, cut, info
 
 
-def _tree_cotree(V, F, E, G, length, root: int, genus: int) -> tuple[np.ndarray, dict]:
-    """The pruned tree-cotree cut graph from ``root`` (steps 1-3 of the module)."""
+def _keys(he: np.ndarray, n: int) -> np.ndarray:
+    return np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
+
+
+def _tree_cotree(V, F, E, G, length, root, genus: int, *, on_rim=None, rim=None
+                 ) -> tuple[np.ndarray, dict]:
+    """The pruned tree-cotree cut graph from ``root`` (steps 1-3 of the module). On a mesh
+    with a boundary, ``root`` is all its vertices (``on_rim``; ``rim``: its edges), contracted
+    to one: the shortest-path forest grows from them, the dual tree does not cross the
+    boundary, and the ``2g + b - 1`` edges left each close a path from the boundary to the
+    boundary (joining its ``b`` loops and cutting the ``g`` handles)."""
     n, m = len(V), len(F)
     cut = np.zeros(len(E), dtype=bool)
     index = _edge_index(E, n)
@@ -147,7 +178,7 @@ def _tree_cotree(V, F, E, G, length, root: int, genus: int) -> tuple[np.ndarray,
         for a, b in zip(path[:-1], path[1:]):
             cut[index[min(a, b) * n + max(a, b)]] = True
 
-    dist, pred = dijkstra(G, indices=root, return_predecessors=True)
+    dist, pred, _ = dijkstra(G, indices=root, return_predecessors=True, min_only=True)
     pred = np.where(pred < 0, -1, pred).astype(np.int64)
     child = np.flatnonzero(pred >= 0)
     in_tree = np.zeros(len(E), dtype=bool)
@@ -159,9 +190,17 @@ def _tree_cotree(V, F, E, G, length, root: int, genus: int) -> tuple[np.ndarray,
     eid = np.searchsorted(E[:, 0] * n + E[:, 1], keys)
     tri = np.arange(len(he)) % m
     order = np.argsort(eid, kind="stable")
-    pairs = tri[order].reshape(-1, 2)  # closed: every edge on exactly two triangles
+    if rim is None:
+        pairs = tri[order].reshape(-1, 2)  # closed: every edge on exactly two triangles
+    else:  # boundary edges: one triangle, no dual edge
+        pairs = np.zeros((len(E), 2), dtype=np.int64)
+        sorted_eid = eid[order]
+        first = np.r_[True, sorted_eid[1:] != sorted_eid[:-1]]
+        pairs[sorted_eid[first], 0] = tri[order][first]
+        pairs[sorted_eid[~first], 1] = tri[order][~first]
+        pairs[rim, 1] = pairs[rim, 0]
     loop_len = dist[E[:, 0]] + dist[E[:, 1]] + length
-    free = ~in_tree
+    free = ~in_tree if rim is None else ~in_tree & ~rim
     # Maximum spanning tree of loop lengths: a minimum one of (top - length), all > 0.
     w = (loop_len.max() * 1.01 + 1e-9) - loop_len[free]
     D = sp.coo_matrix((w, (pairs[free, 0], pairs[free, 1])), shape=(m, m)).tocsr()
@@ -175,8 +214,9 @@ def _tree_cotree(V, F, E, G, length, root: int, genus: int) -> tuple[np.ndarray,
         mark(_tree_path(pred, u))
         mark(_tree_path(pred, v))
         cut[e] = True
-    info = {"genus": int(genus), "loops": int(len(left)), "root": root}
-    return _prune(E, cut, n), info
+    info = {"genus": int(genus), "loops": int(len(left)),
+            "root": int(root) if np.ndim(root) == 0 else "boundary"}
+    return _prune(E, cut, n, on_rim), info
 
 
 def cut_open(F: np.ndarray, E: np.ndarray, cut: np.ndarray, n: int
