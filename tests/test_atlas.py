@@ -230,3 +230,22 @@ def test_more_roots_never_longer():
     assert info["roots"] == 4 and length[four].sum() <= length[one].sum() + 1e-12
     Fc, _ = cut_open(s.faces, E, four, len(s.points))
     assert euler_characteristic(Fc) == 1 and len(boundary_loops(Fc)) == 1
+
+
+def test_overlap_warns(monkeypatch, torus):
+    """A chart whose boundary crosses itself is reported (record and warning), never silent."""
+    import pcgeom.maps.atlas as atlas
+
+    real = atlas.chart_map
+
+    def crossed(V, F):
+        U, info = real(V, F)
+        loop = np.asarray(boundary_loops(F)[0])
+        U = U.copy()
+        U[loop[0]] = U[loop[len(loop) // 2]] + (U[loop[len(loop) // 2]] - U.mean(axis=0))
+        return U, info
+
+    monkeypatch.setattr(atlas, "chart_map", crossed)
+    with pytest.warns(UserWarning, match="the atlas overlaps itself"):
+        r = parametrize(torus.points, cut="auto", progress=False)
+    assert r.history[-1]["overlap"] is True and r.history[-1]["overlap_area"] > 0

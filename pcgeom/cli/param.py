@@ -92,9 +92,10 @@ def configure(p: argparse.ArgumentParser) -> None:
                         "(default: free boundary)")
     p.add_argument("--cut", choices=CUTS, default="none",
                    help="auto: seams that open the cloud into a disk (closed clouds of any "
-                        "genus, open ones without handles), mapped without a fold and packed "
-                        "into [0, 1]^2 with a gutter; the map file gets 'chart' and per-corner "
-                        "'corner_uv'; needs --domain free (default: none)")
+                        "genus; open ones cut from their holes to their rim), mapped without "
+                        "a fold and packed into [0, 1]^2 with a gutter; the map file gets "
+                        "'chart' and per-corner 'corner_uv'; needs --domain free "
+                        "(default: none)")
     p.add_argument("--max-stretch", default=MAX_STRETCH, metavar="S",
                    help="with --cut auto: the bound (a number above 1) on a chart's "
                         "scale-factor spread (95th over 5th percentile); validated and "

@@ -209,7 +209,8 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
         ``faces`` (M, 3) rows of ``Xn``, ``corner_uv`` (M, 3, 2), ``record`` (the history
         record: the local mesh's, with ``seams`` (genus, loops, length), ``charts``,
         ``cut_euler`` and ``cut_loops`` (1 and 1: a disk), ``lscm_flips``, ``flips``,
-        ``overlap`` (False when every chart's boundary is simple), ``stretch`` (the
+        ``overlap`` (False when every chart's boundary is simple), ``overlap_area`` (the
+        share of the charts' area covered twice, :func:`overlap_area`), ``stretch`` (the
         scale-factor spread, 95th over 5th percentile, per triangle), ``seam_length``
         (over the square root of the area), ``atlas_use``, ``max_stretch``).
 
@@ -217,6 +218,12 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
     ------
     InputError
         As :func:`pcgeom.maps.localmesh.mesh_cloud` (not a surface).
+
+    Warns
+    -----
+    UserWarning
+        The chart overlaps itself (its boundary is not simple: the free boundary of LSCM
+        crossing itself, seen on open clouds whose repaired local mesh keeps false holes).
     """
     from scipy.spatial import cKDTree
 
@@ -260,12 +267,20 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
         near = np.flatnonzero(known)[cKDTree(Xn[known]).query(Xn[~known])[1]]
         uv[~known], lam[~known] = uv[near], lam[near]
     chart = np.zeros(len(Xn), dtype=np.int64)
+    simple = boundary_simple(U, Fc)
+    covered_twice = 0.0 if simple else overlap_area(U, Fc)
+    if not simple:
+        import warnings
+
+        warnings.warn(f"the atlas overlaps itself: {100 * covered_twice:.2f}% of its area is "
+                      "covered twice (its boundary crosses itself; the stretch-driven extra "
+                      "seams and charts that would separate it are not built yet)", stacklevel=3)
     record.update(kind="localmesh", onto="free", cut="auto", seams=seams, charts=1,
                   cut_euler=euler_characteristic(Fc), cut_loops=len(boundary_loops(Fc)),
                   lscm_flips=info["lscm_flips"], untangled=info["untangled"],
                   flips={"count": info["flips"], "faces": int(len(Fc)), "rim": 0, "hole": 0,
                          "inside": info["flips"]},
-                  overlap=not boundary_simple(U, Fc), stretch=float(p95 / p5),
+                  overlap=not simple, overlap_area=covered_twice, stretch=float(p95 / p5),
                   seam_length=float(seams["length"] / np.sqrt(a3.sum())),
                   atlas_use=float(a2.sum()), max_stretch=float(max_stretch),
                   gutter=float(gutter), seconds=time.perf_counter() - t0)
