@@ -182,6 +182,15 @@ def test_cli_obj(tmp_path, capsys, torus_file):
     assert len(m.vertices) == n_vt  # trimesh splits a vertex per vt
     assert (m.visual.uv >= 0).all() and (m.visual.uv <= 1).all()
     assert (tmp_path / "t.mtl").exists() and (tmp_path / "t_checker.png").exists()
+    # MeshLab keeps one vertex per point and the uv per corner (wedge texture coordinates).
+    pymeshlab = pytest.importorskip("pymeshlab")
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(obj))
+    mm = ms.current_mesh()
+    assert (mm.vertex_number(), mm.face_number()) == (n_v, len(r.mesh_faces))
+    wedge = mm.wedge_tex_coord_matrix()
+    assert wedge.shape == (3 * len(r.mesh_faces), 2)
+    assert (wedge >= 0).all() and (wedge <= 1).all()
 
 
 def test_cut_map_report(torus, torus_map):
