@@ -28,6 +28,7 @@ from pcgeom.config import (
     config_from_dict,
     get_preset,
     preset_name,
+    with_denoise,
 )
 from pcgeom.errors import InputError
 
@@ -73,6 +74,13 @@ def test_preset_name():
     assert preset_name(ParamConfig()) == "paper"
     assert preset_name(get_preset("fast", max_stages=3)) == "custom"
     assert preset_name(get_preset("paper", dtype="float64")) == "custom"
+    # A preset but for --denoise is named after it (issue 39: "custom" though param printed
+    # "preset fast").
+    assert preset_name(with_denoise(get_preset("fast"), "off")) == "fast (denoise off)"
+    assert preset_name(with_denoise(get_preset("fast"), 2)) == "fast (denoise 2)"
+    assert preset_name(with_denoise(get_preset("networks"), "2.5")) == "networks (denoise 2.5)"
+    assert preset_name(with_denoise(get_preset("fast"), "auto")) == "fast"  # fast's own
+    assert preset_name(with_denoise(get_preset("fast", max_stages=3), "off")) == "custom"
     # Equality, not identity: a preset read back from JSON still has its name.
     back = ParamConfig.from_dict(json.loads(json.dumps(get_preset("fast").to_dict())))
     assert preset_name(back) == "fast"

@@ -619,8 +619,20 @@ def get_preset(name: str, **overrides) -> ParamConfig:
 
 
 def preset_name(config: ParamConfig) -> str:
-    """The name of the preset equal to ``config``, or ``"custom"``."""
-    return next((name for name, preset in PRESETS.items() if preset == config), "custom")
+    """The name of the preset equal to ``config``; of one it equals but for ``--denoise
+    VALUE`` (:func:`with_denoise`), the name and that value, e.g. ``"fast (denoise off)"``
+    or ``"fast (denoise 2)"``; else ``"custom"``."""
+    exact = next((name for name, preset in PRESETS.items() if preset == config), None)
+    if exact is not None:
+        return exact
+    for name, preset in PRESETS.items():
+        if dataclasses.replace(config, denoise=preset.denoise) != preset:
+            continue
+        d = config.denoise
+        value = d.mode if d.mode in ("auto", "off") else f"{d.width:g}"
+        if with_denoise(preset, value) == config:
+            return f"{name} (denoise {value})"
+    return "custom"
 
 
 DENOISE_OPTION = "auto, off or a positive number (the fit's width in spacings)"
