@@ -222,6 +222,16 @@ def test_help_has_examples(capsys):
     assert "pcgeom evaluate mesh.ply mesh_uv.npz" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("command", ["param", "boundary", "reconstruct", "batch"])
+def test_help_lists_every_readable_format(capsys, command):
+    """Issue 39: boundary and reconstruct --help omitted .las/.laz."""
+    from pcgeom.io import SUPPORTED_EXTENSIONS
+
+    assert cli.main([command, "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert all(ext in out.split("INPUT", 2)[-1] for ext in SUPPORTED_EXTENSIONS), out
+
+
 def test_interrupt_keeps_no_output(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
 

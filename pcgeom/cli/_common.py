@@ -137,7 +137,7 @@ def add_output_options(p: argparse.ArgumentParser, out: str | None, out_help: st
 def add_cloud_and_map(p: argparse.ArgumentParser) -> None:
     """``INPUT`` and ``--map``: the arguments of the commands that work on a free-boundary map."""
     p.add_argument("input", metavar="INPUT",
-                   help="point cloud: .ply .obj .off .xyz .txt .csv .npz")
+                   help="point cloud: .ply .obj .off .xyz .txt .csv .npz .las .laz")
     p.add_argument("--map", metavar="MAP.npz",
                    help="free-boundary map of INPUT written by 'pcgeom param' (default: map "
                         "INPUT first, preset fast)")
