@@ -122,7 +122,8 @@ def test_bad_input_file(tmp_path, monkeypatch, capsys, no_training, case):
     "options, message",
     [
         (["--domain", "hexagon"], "unknown domain 'hexagon'; choose one of: free, disk, square, "
-                                  "rect, annulus, smile, car, sphere, polygon"),
+                                  "rect, annulus, smile, car, sphere, PATH.json (a polygon with "
+                                  "holes) or PATH.png (a binary mask)"),
         (["--domain", "annulus:1.2"],
          "domain 'annulus:1.2': inner: expected a radius below outer = 1.0, got 1.2"),
         (["--domain", "rect:0"], "domain 'rect:0': aspect: expected a positive finite number"),

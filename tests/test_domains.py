@@ -27,7 +27,10 @@ from pcgeom.errors import InputError
 from pcgeom.metrics import domain_hausdorff, hausdorff
 
 # The registry, in order, as error messages list it.
-_ALL = "free, disk, square, rect, annulus, smile, car, sphere, polygon"
+_NAMES = "free, disk, square, rect, annulus, smile, car, sphere, polygon"  # dict specs' names
+# Every spec that works: a polygon by its file, never by its name (issue 39).
+_ALL = (r"free, disk, square, rect, annulus, smile, car, sphere, PATH\.json \(a polygon with "
+        r"holes\) or PATH\.png \(a binary mask\)")
 
 
 def _dense_disk_reference(h: float = 0.01) -> np.ndarray:
@@ -174,7 +177,7 @@ def test_domain_to_dict_and_spec_values():
          r"^domain disk: unknown parameter\(s\) colour; known: center, radius$"),
         ({"name": "free", "radius": 1.0},
          r"^domain free: unknown parameter\(s\) radius; known: none$"),
-        ({"radius": 1.0}, rf"^domain \{{'radius': 1.0\}}: no 'name'; choose one of: {_ALL}$"),
+        ({"radius": 1.0}, rf"^domain \{{'radius': 1.0\}}: no 'name'; choose one of: {_NAMES}$"),
         ({"name": "disk", "center": [1.0]},
          r"^domain 'disk': center: expected two finite numbers, got \(1\.0,\)$"),
     ],

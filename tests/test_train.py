@@ -694,7 +694,8 @@ def test_domain_none_is_a_type_error_pointing_to_free(peaks, monkeypatch):
     with pytest.raises(TypeError, match="the free boundary is 'free'"):
         parametrize(V, None, config=_tiny(), progress=False)
     with pytest.raises(InputError, match=r"^unknown domain 'hexagon'; choose one of: free, disk, "
-                                         r"square, rect, annulus, smile, car, sphere, polygon$"):
+                                         r"square, rect, annulus, smile, car, sphere, PATH\.json "
+                                         r"\(a polygon with holes\) or PATH\.png \(a binary mask\)$"):
         parametrize(V, "hexagon", config=_tiny(), progress=False)
 
 

@@ -114,9 +114,15 @@ def _auto(cls: type[Domain], rest: list[str], spec: str) -> Domain:
     return _build(cls, {cls.spec_args[0]: placeholder, **params, "auto": True}, spec)
 
 
+SPEC_CHOICES = ", ".join([n for n in DOMAINS if n != PolygonDomain.name]
+                         + ["PATH.json (a polygon with holes) or PATH.png (a binary mask)"])
+"""What the unknown-domain message offers: every spec that works by name (a polygon has no
+default, so its file, not its name)."""
+
+
 def _lookup(name) -> type[Domain]:
     if name not in DOMAINS:
-        raise InputError(f"unknown domain {name!r}; choose one of: {', '.join(DOMAINS)}")
+        raise InputError(f"unknown domain {name!r}; choose one of: {SPEC_CHOICES}")
     return DOMAINS[name]
 
 
