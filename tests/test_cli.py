@@ -594,7 +594,8 @@ def test_domains_lists_every_registered_domain(capsys):
     assert cli.main(["domains"]) == 0
     out = capsys.readouterr().out
     lines = out.splitlines()
-    assert [line.split()[0].split(":")[0] for line in lines] == list(DOMAINS)
+    assert [line.split()[0].split(":")[0] for line in lines] == [
+        "PATH.json" if name == "polygon" else name for name in DOMAINS] + ["PATH.png"]
     assert any(line.startswith("annulus:inner,outer ") and "area 2.3562" in line
                for line in lines)
     assert any(line.startswith("smile ") and "smiling face" in line for line in lines)
@@ -607,6 +608,28 @@ def test_domains_lists_every_registered_domain(capsys):
     assert rows["smile"]["area"] == pytest.approx(Smile().area)
     assert rows["free"]["area"] is None and rows["polygon"]["area"] is None
     assert all(row["description"] for row in rows.values())
+
+
+def test_domains_list_offers_the_file_specs_and_show_says_auto_is_the_clouds(
+        tmp_path, monkeypatch, capsys):
+    """Issue 39: the listing omitted the PNG mask and offered the bare name 'polygon';
+    'show annulus:auto' drew a 0.5 ring without saying the radius comes from the cloud."""
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["domains"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert any(line.startswith("PATH.png ") and "binary image mask" in line for line in lines)
+    assert any(line.startswith("PATH.json ") and "polygon with holes" in line for line in lines)
+    assert not any(line.startswith("polygon") for line in lines)
+    assert cli.main(["domains", "--json"]) == 0
+    files = json.loads(capsys.readouterr().out)["files"]
+    assert [f["spec"] for f in files] == ["PATH.json", "PATH.png"] and ".png" in files[1]["suffixes"]
+
+    assert cli.main(["domains", "show", "annulus:auto", "-o", "ring.png"]) == 0
+    assert capsys.readouterr().out == (
+        "annulus:auto: area 2.3562, 2 boundary loop(s) -> ring.png (inner radius drawn at 0.5: "
+        "a map takes it from the cloud (the surface's own hole))\n")
+    assert cli.main(["domains", "show", "annulus:0.5", "-o", "ring.png", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["note"] is None
 
 
 def test_domains_show_writes_a_png(tmp_path, monkeypatch, capsys):

@@ -141,6 +141,15 @@ def _write_polygon(path: Path) -> None:
         [[0, 0], [2, 0], [2, 1], [0, 1]], [[0.5, 0.25], [1, 0.25], [1, 0.75]]]}))
 
 
+def _write_mask(path: Path) -> None:
+    """A white disk with a black hole, 64 x 64."""
+    from PIL import Image
+
+    y, x = np.mgrid[:64, :64] - 31.5
+    r = np.hypot(x, y)
+    Image.fromarray(((r < 30) & (r > 10)).astype(np.uint8) * 255).save(path)
+
+
 def _is_cloud_name(token: str) -> bool:
     return Path(token).suffix.lower() in SUPPORTED_EXTENSIONS
 
@@ -159,6 +168,8 @@ def prepare_inputs(argv: list[str], where: Path) -> list[Path]:
             _write_landmarks(path)
         elif path.suffix.lower() == ".json":
             _write_polygon(path)
+        elif path.suffix.lower() == ".png":  # an input image: a domain's mask
+            _write_mask(path)
         elif "*" in token:
             for k in range(3):
                 _write_cloud(where / token.replace("*", f"cloud{k}", 1))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import sys
 
-from ..domains import DOMAINS, get_domain
+from ..domains import DOMAINS, MASK_SUFFIXES, PolygonDomain, get_domain
 from ..errors import InputError
 from ..io import check_writable
 from ._common import (EXIT_OK, add_output_options, int_at_least, run_command, seed,
@@ -29,7 +29,17 @@ examples:
   pcgeom domains show annulus:0.4 -o ring.png --n 5000
   pcgeom domains show room.json -o room.png
       a polygon with holes: {"type": "Polygon", "coordinates": [outer ring, hole rings...]}
+  pcgeom domains show shape.png -o shape_domain.png
+      a binary image mask: its white pixels (holes included)
+  pcgeom domains show annulus:auto -o ring.png
+      a ring whose inner radius a map takes from the cloud (drawn at 0.5 here)
 """
+
+
+AUTO_NOTE = ("inner radius drawn at {inner:g}: a map takes it from the cloud (the surface's "
+             "own hole)")
+MASK_LINE = ("A binary image mask from PATH.png (or .bmp .tif .gif .jpg): its white pixels, "
+             "holes included, scaled to a longer side of 2.")
 
 
 def configure(p) -> None:
@@ -71,14 +81,21 @@ def _list(args) -> int:
                          "pcgeom domains show SPEC -o OUT.png")
     rows = _entries()
     if args.json:
-        print(json.dumps({"command": "domains", "domains": rows}))
+        print(json.dumps({"command": "domains", "domains": rows,
+                          "files": [{"spec": "PATH.json", "name": PolygonDomain.name},
+                                    {"spec": "PATH.png", "name": PolygonDomain.name,
+                                     "suffixes": list(MASK_SUFFIXES), "description": MASK_LINE}]}))
         return EXIT_OK
-    shown = {r["name"]: r["name"] + (":" + ",".join(r["spec_args"]) if r["spec_args"] else "")
+    # A polygon is given by its file, never by its name; a mask is a file too.
+    shown = {r["name"]: "PATH.json" if r["name"] == PolygonDomain.name
+             else r["name"] + (":" + ",".join(r["spec_args"]) if r["spec_args"] else "")
              for r in rows}
-    width = max(len(s) for s in shown.values())
-    for r in rows:
-        area = "-" if r["area"] is None else f"{r['area']:.4f}"
-        print(f"{shown[r['name']]:<{width}}  area {area:>6}  {r['description']}")
+    lines = [(shown[r["name"]], "-" if r["area"] is None else f"{r['area']:.4f}",
+              r["description"]) for r in rows]
+    lines.append(("PATH.png", "-", MASK_LINE))
+    width = max(len(line[0]) for line in lines)
+    for spec, area, description in lines:
+        print(f"{spec:<{width}}  area {area:>6}  {description}")
     return EXIT_OK
 
 
@@ -93,14 +110,18 @@ def _show(args) -> int:
         raise InputError(f"domain {domain.spec!r} has no region to draw")
     from ..apps.plot import plot_domain
 
-    plot_domain(domain, out, n=args.n, seed=args.seed)
+    # annulus:auto: a map takes its inner radius from the cloud; the figure shows a stand-in.
+    note = AUTO_NOTE.format(inner=domain.inner) if getattr(domain, "auto", False) else None
+    plot_domain(domain, out, n=args.n, seed=args.seed,
+                title=None if note is None else f"{args.spec}: {note}")
     loops = domain.boundary_loops()
     if args.json:
         print(json.dumps({"command": "domains show", "domain": domain.spec, "out": args.out,
                           "area": domain.area, "centroid": domain.centroid.tolist(),
-                          "boundary_loops": len(loops), "n": args.n}))
+                          "boundary_loops": len(loops), "n": args.n, "note": note}))
     else:
-        print(f"{args.spec}: area {domain.area:.4f}, {len(loops)} boundary loop(s) -> {args.out}")
+        print(f"{args.spec}: area {domain.area:.4f}, {len(loops)} boundary loop(s) -> {args.out}"
+              + ("" if note is None else f" ({note})"))
     return EXIT_OK
 
 
