@@ -16,8 +16,7 @@ boundary into a folded planar map. This module measures the mesh's topology and 
    :data:`HOLE_MARGIN`, it is the bound of everything below: a rule of the sampling's own,
    the same on a jittered grid (tight) and on random points (a long tail).
 2. **Open or closed.** A boundary loop longer than a circle :data:`GROW_LOOP` times that
-   wide is a rim or a hole of the surface: the cloud is open. Then triangles wider than the
-   bound go (they spanned a hole of the surface), and each loop (libigl's loops of the mesh
+   wide is a rim or a hole of the surface: the cloud is open. Then each loop (libigl's loops of the mesh
    with its pinched vertices split, each cut at its repeated vertices into simple loops) is
    filled where a fill no wider than the bound exists that lies flat: the Delaunay
    triangles, in the plane of the loop's normals, of its points and the unmeshed points
@@ -95,7 +94,9 @@ class Topology:
     """Pinched vertices of the mesh before its repair that a fill made manifold."""
     holes_filled: int
     spans_cut: int
-    """Triangles wider than the sampling leaves (they spanned a hole of the surface)."""
+    """Triangles cut as wider than the sampling leaves (spanning a hole of the surface; none
+    yet: cutting them made the holes of tests/test_maps_domain.py's sheets 20-45% too
+    large)."""
     bridges_cut: int
     """Triangles cut as bridges between sheets (none yet: handles are counted in the genus)."""
     euler_before: int
@@ -550,14 +551,11 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
         width = enclosing_radius(X, faces) / np.maximum(h[faces].mean(axis=1), 1e-300)
         bound = HOLE_MARGIN * widest_empty(width)
         if _has_long_loop(X, faces, h, GROW_LOOP * bound):
-            # A loop longer than any hole the sampling leaves: an open surface. Triangles
-            # wider than the sampling leaves span its holes and go; the holes the sampling
-            # leaves are filled where a flat fill closes them (a fold costs its map).
-            wide = width > bound
-            faces = faces[~wide]
+            # A loop longer than any hole the sampling leaves: an open surface. The holes
+            # the sampling leaves are filled where a flat fill closes them (a fold costs its
+            # map).
             faces, filled, _, _ = _fill_pass(X, normals, faces, h, bound, exclude)
-            return faces, _topology(before, pinched_before, *_measure(faces), filled,
-                                    int(wide.sum()))
+            return faces, _topology(before, pinched_before, *_measure(faces), filled, 0)
         faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude)
         if len(stuck) or long:
             # Loops left that no flat fill closes: the mesh overlaps itself there (noise,
