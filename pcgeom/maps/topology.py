@@ -25,9 +25,11 @@ boundary into a folded planar map. This module measures the mesh's topology and 
    triangle. Folds are not filled: measured on the shared open surfaces, a fill that folds
    costs their maps (peaks_7holes_choi 0.030 to 0.046 rad, 9 flips).
 3. **Closed.** Without a long loop, the same fills; then the loops that no flat fill closes
-   (the mesh overlaps itself there: noise, uneven density) are opened further (their
-   points' triangles go) and filled again, folds allowed, up to :data:`TRIAL_ROUNDS` times;
-   kept when that closes the mesh. A closed cloud gets no planar map, and the sphere map
+   (the mesh overlaps itself there: noise, uneven density), or whose fill is wider than the
+   bound, are opened further (their points' triangles go) and filled again, folds allowed,
+   fills as wide as the loops that made the cloud closed (:data:`GROW_LOOP` times the
+   bound), up to :data:`TRIAL_ROUNDS` times; kept when that closes the mesh and it keeps
+   :data:`TRIAL_KEEP` of its points. A closed cloud gets no planar map, and the sphere map
    wants a closed mesh.
 4. **Pinches** (libigl's ``is_vertex_manifold``) that a fill joined are repaired; the rest
    are split for the count (libigl's ``split_nonmanifold``) and kept in the mesh (LSCM maps
@@ -60,9 +62,12 @@ empty circle the sampling leaves (:func:`widest_empty`)."""
 TRIAL_ROUNDS = 3
 """Rounds of the trial that closes a mesh whose short loops no flat fill closes."""
 
+TRIAL_KEEP = 0.9
+"""... and kept when its mesh still holds this share of the points."""
+
 GROW_LOOP = 3.0
-"""In that trial, loops up to this times as long as a circle of the widest empty radius are
-opened further and filled again."""
+"""A loop longer than a circle this many times the widest empty radius is a rim or a hole of
+the surface: the cloud is open."""
 
 SPACING_NEIGHBOURS = 6
 """Nearest points whose mean distance is a point's local spacing."""
@@ -422,11 +427,12 @@ def _least_area_fill(X: np.ndarray, normals: np.ndarray, loop: np.ndarray,
     triangles facing away from their corners' normals priced out (dynamic programming over the polygon's diagonals, O(k^3); Barequet and
     Sharir's, as in Liepa's hole filling), oriented as the mesh (each loop edge the other way
     round); no diagonal may be an edge of ``edges`` (the mesh's: ``a * N + b``, ``a < b``).
-    None for loops of more than :data:`LEAST_AREA_LOOP` points, or when every triangulation
+    None for loops of more than :data:`LEAST_AREA_LOOP` points (twice that with ``folds``),
+    or when every triangulation
     needs such a diagonal or (unless ``folds``) a triangle facing away (a fold: no fill of
     it maps flat)."""
     k = len(loop)
-    if k > LEAST_AREA_LOOP:
+    if k > (LEAST_AREA_LOOP if not folds else 2 * LEAST_AREA_LOOP):
         return None
     P, Nv = X[loop], normals[loop]
     i, m, j = np.meshgrid(np.arange(k), np.arange(k), np.arange(k), indexing="ij")
@@ -567,12 +573,13 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
                 near = np.zeros(n, dtype=bool)
                 near[stuck] = True
                 trial = trial[~near[trial].any(axis=1)]
-                trial, more, stuck, long = _fill_pass(X, normals, trial, h, bound, exclude,
-                                                      folds=True, grow=GROW_LOOP)
+                trial, more, stuck, long = _fill_pass(X, normals, trial, h, GROW_LOOP * bound,
+                                                      exclude, folds=True, grow=np.inf)
                 added += more
                 if not (len(stuck) or long):
                     break
-            if len(trial) and measure(trial)["boundary_loops"] == 0:
+            if (len(trial) and measure(trial)["boundary_loops"] == 0
+                    and len(np.unique(trial)) >= TRIAL_KEEP * len(np.unique(faces))):
                 faces, filled = trial, filled + added
     return faces, _topology(before, pinched_before, *_measure(faces), filled, 0)
 
