@@ -630,12 +630,27 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
     edges = np.unique(U[:, 0] * n + U[:, 1])
     del U
 
+    meshed = np.flatnonzero(np.bincount(faces.ravel(), minlength=n) > 0)
+    mesh_tree = cKDTree(X[meshed])
+
     def narrow(F: np.ndarray) -> bool:
-        return float((enclosing_radius(X, F) / np.maximum(h[F].mean(axis=1), 1e-300)).max()
-                     ) <= bound
+        radius = enclosing_radius(X, F)
+        if float((radius / np.maximum(h[F].mean(axis=1), 1e-300)).max()) > bound:
+            return False
+        # A fill over meshed points is a second sheet over the surface (a cap over a small
+        # patch's rim), not a hole's: a few meshed points near its triangles at most (where
+        # the mesh overlaps itself round a small hole), not a patch of them.
+        near = mesh_tree.query_ball_point(X[F].mean(axis=1), 0.5 * radius)
+        under = set().union(*(meshed[k].tolist() for k in near)) - set(F.ravel().tolist())
+        return len(under) <= max(2, len(np.unique(F)) // 4)
 
     fills, stuck, long = [], [], 0
     for loop in simple_loops(faces):
+        perimeter = np.linalg.norm(X[np.roll(loop, -1)] - X[loop], axis=1).sum()
+        circle = 2.0 * np.pi * bound * float(np.median(h[loop]))
+        if np.isfinite(grow) and perimeter > GROW_LOOP * circle:
+            long += 1  # a rim or a hole of the surface (or a slit as long): not tried
+            continue
         inner = np.zeros(0, dtype=np.int64)
         centre = X[loop].mean(axis=0)
         if tree is not None:
@@ -645,8 +660,7 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
         if F is None:
             # No fill without a fold or a third triangle on an edge: the mesh overlaps
             # itself there. A loop no longer than a circle the sampling leaves is stuck.
-            perimeter = np.linalg.norm(X[np.roll(loop, -1)] - X[loop], axis=1).sum()
-            if perimeter <= grow * 2.0 * np.pi * bound * float(np.median(h[loop])):
+            if perimeter <= grow * circle:
                 stuck.append(loop)
             else:
                 long += 1
