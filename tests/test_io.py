@@ -225,7 +225,8 @@ def test_ply_with_zero_vertices(tmp_path):
 @pytest.mark.parametrize(
     "name, content, match",
     [
-        ("g.ply", b"hello garbage\x00\xff\n1 2\n", r"g\.ply: cannot parse: "),
+        ("g.ply", b"hello garbage\x00\xff\n1 2\n", r"g\.ply: not a PLY file \(it does not "
+                                                r"start with 'ply'\)"),
         ("g.off", b"hello world\nfoo\n", r"g\.off: cannot parse: "),
         ("g.npz", b"PK not really a zip", r"g\.npz: cannot parse: "),
         ("g.txt", b"1 2 3\n4 five 6\n", r"g\.txt: cannot parse: .*five"),
@@ -238,6 +239,54 @@ def test_garbage_content(tmp_path, name, content, match):
     with pytest.raises(InputError, match=match) as info:
         read_points(tmp_path / name)
     assert "\n" not in str(info.value)
+
+
+_PLY_HEAD = "ply\nformat ascii 1.0\nelement vertex 12\nproperty float x\nproperty float y\n"
+_PLY_XYZ = _PLY_HEAD + "property float z\n"
+_PLY_ROWS = "".join(f"{k} {k % 3} {k % 5}\n" for k in range(12))
+_PLY_FACES = "element face 2\nproperty list uchar int vertex_indices\n"
+
+
+@pytest.mark.parametrize(
+    "content, match",
+    [  # issue 39: "list index out of range", or read without a word
+        ("ply\nformat ascii 1.0\nelement vertex\nproperty float x\nend_header\n1\n",
+         r"m\.ply: malformed PLY header, line 3: 'element vertex' \(expected 'element NAME "
+         r"COUNT'\)"),
+        ("ply\nformat ascii 1.0\nelement vertex 12\nproperty\nend_header\n" + _PLY_ROWS,
+         r"m\.ply: malformed PLY header, line 4: 'property' \(expected 'property TYPE NAME' or "
+         r"'property list TYPE TYPE NAME' after an element\)"),
+        (_PLY_HEAD + "property float z w\nend_header\n" + _PLY_ROWS,
+         r"m\.ply: malformed PLY header, line 6: 'property float z w'"),
+        ("ply\nformat ascii\nelement vertex 12\nend_header\n" + _PLY_ROWS,
+         r"m\.ply: malformed PLY header, line 2: 'format ascii' \(expected 'format ascii 1\.0' "
+         r"or a binary format\)"),
+        (_PLY_XYZ + "vertex_count 3\nend_header\n" + _PLY_ROWS,
+         r"m\.ply: malformed PLY header, line 7: 'vertex_count 3' \(not a PLY header keyword\)"),
+        (_PLY_XYZ + _PLY_ROWS, r"m\.ply: malformed PLY header: no 'end_header' line"),
+        ("ply\nelement vertex 12\nproperty float x\nend_header\n" + _PLY_ROWS,
+         r"m\.ply: malformed PLY header: no 'format' line"),
+        (_PLY_XYZ + "end_header\n" + _PLY_ROWS[:-6],
+         r"m\.ply: malformed PLY data, line 19: 1 value\(s\) do not match the vertex's "
+         r"properties \(x y z\)"),
+        (_PLY_XYZ + "end_header\n" + _PLY_ROWS.replace("11 2 1\n", ""),
+         r"m\.ply: truncated PLY: its header declares 12 vertex but the data ends at line 18"),
+        (_PLY_XYZ + _PLY_FACES + "end_header\n" + _PLY_ROWS + "3 0 1 2\n3 1 2\n",
+         r"m\.ply: malformed PLY data, line 23: 3 value\(s\) do not match the face's "
+         r"properties \(vertex_indices\)"),
+        (_PLY_XYZ + _PLY_FACES + "end_header\n" + _PLY_ROWS + "3 0 1 2\n",
+         r"m\.ply: truncated PLY: its header declares 12 vertex, 2 face but the data ends at "
+         r"line 22"),
+    ],
+)
+def test_malformed_ply_is_one_line_naming_the_file_and_the_fault(tmp_path, content, match):
+    (tmp_path / "m.ply").write_text(content)
+    with pytest.raises(InputError, match=match) as info:
+        read_points(tmp_path / "m.ply")
+    assert "\n" not in str(info.value) and str(info.value).startswith(str(tmp_path / "m.ply"))
+    (tmp_path / "m.ply").write_text(_PLY_XYZ + _PLY_FACES + "end_header\n" + _PLY_ROWS
+                                    + "3 0 1 2\n4 1 2 3 4\n\n")  # a quad, a trailing blank line
+    assert len(read_points(tmp_path / "m.ply").points) == 12
 
 
 def test_unknown_extension_lists_supported(tmp_path):

@@ -116,12 +116,106 @@ def _ply_normals(loaded, name: str) -> np.ndarray | None:
     return np.column_stack([np.asarray(data[c], dtype=np.float64).reshape(-1) for c in columns])
 
 
+_PLY_FORMATS = ("ascii", "binary_little_endian", "binary_big_endian")
+_PLY_TYPES = {"char", "uchar", "short", "ushort", "int", "uint", "float", "double", "int8",
+              "uint8", "int16", "uint16", "int32", "uint32", "float32", "float64"}
+
+
+def _check_ply(path: Path, name: str) -> None:
+    """A PLY file's header (and an ASCII file's data lines) checked against the format, so
+    that a malformed file gets a message that says what is wrong.
+
+    The header: ``ply``, ``format ascii|binary_little_endian|binary_big_endian 1.0``,
+    ``element NAME COUNT``, ``property TYPE NAME`` or ``property list TYPE TYPE NAME``,
+    ``comment``/``obj_info`` lines, ``end_header``. An ASCII body: one line per element record,
+    as many values as its properties take (a list: its length, then that many values).
+
+    Raises
+    ------
+    InputError
+        One line naming the file and what is wrong (the header line, or the data line).
+    """
+    with open(path, "rb") as f:
+        head = f.read(1 << 16)
+        if not head.startswith(b"ply"):
+            raise InputError(f"{name}: not a PLY file (it does not start with 'ply')")
+        end = head.find(b"end_header")
+        if end < 0:
+            raise InputError(f"{name}: malformed PLY header: no 'end_header' line")
+        header = head[:end].decode("ascii", errors="replace").splitlines()[1:]
+        elements: list[tuple[str, int, list[list[str]]]] = []
+        fmt = None
+        for k, line in enumerate(header, start=2):
+            words = line.split()
+            bad = f"{name}: malformed PLY header, line {k}: {line.strip()!r}"
+            if not words or words[0] in ("comment", "obj_info"):
+                continue
+            if words[0] == "format":
+                if len(words) != 3 or words[1] not in _PLY_FORMATS:
+                    raise InputError(f"{bad} (expected 'format ascii 1.0' or a binary format)")
+                fmt = words[1]
+            elif words[0] == "element":
+                if len(words) != 3 or not words[2].isdigit():
+                    raise InputError(f"{bad} (expected 'element NAME COUNT')")
+                elements.append((words[1], int(words[2]), []))
+            elif words[0] == "property":
+                scalar = len(words) == 3 and words[1] in _PLY_TYPES
+                listed = (len(words) == 5 and words[1] == "list"
+                          and {words[2], words[3]} <= _PLY_TYPES)
+                if not elements or not (scalar or listed):
+                    raise InputError(f"{bad} (expected 'property TYPE NAME' or 'property list "
+                                     "TYPE TYPE NAME' after an element)")
+                elements[-1][2].append(words[1:])
+            else:
+                raise InputError(f"{bad} (not a PLY header keyword)")
+        if fmt is None:
+            raise InputError(f"{name}: malformed PLY header: no 'format' line")
+        if fmt != "ascii":
+            return  # trimesh checks a binary body's length against the header
+        f.seek(end)
+        f.readline()  # the rest of the end_header line
+        lines = (line.split() for line in f)
+        _check_ascii_records(lines, elements, name,
+                             first=len(header) + 2)
+
+
+def _check_ascii_records(lines, elements, name: str, first: int) -> None:
+    """Each element's records, one non-empty line each, against its properties."""
+    declared = ", ".join(f"{count} {element}" for element, count, _ in elements)
+    number = first
+    for element, count, properties in elements:
+        for _ in range(count):
+            words = next(lines, None)
+            number += 1
+            while words is not None and not words:
+                words, number = next(lines, None), number + 1
+            if words is None:
+                raise InputError(f"{name}: truncated PLY: its header declares {declared} but "
+                                 f"the data ends at line {number - 1}")
+            at = 0
+            for prop in properties:
+                if prop[0] == "list":
+                    try:
+                        at += 1 + int(float(words[at]))
+                    except (IndexError, ValueError):
+                        at = -1
+                        break
+                else:
+                    at += 1
+            if at != len(words):
+                raise InputError(f"{name}: malformed PLY data, line {number}: {len(words)} "
+                                 f"value(s) do not match the {element}'s properties "
+                                 f"({' '.join(p[-1] for p in properties)})")
+
+
 def _read_trimesh(
     path: Path, name: str, with_normals: bool
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
     """PLY and OFF through trimesh; ``process=False`` keeps vertex order and duplicates."""
     import trimesh
 
+    if path.suffix.lower() == ".ply":
+        _check_ply(path, name)  # trimesh's own errors say "list index out of range" and the like
     try:
         loaded = trimesh.load(str(path), process=False)
     except Exception as exc:  # any parser failure is the file's fault here
