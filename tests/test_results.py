@@ -189,6 +189,21 @@ def test_bare_uv_file_loads_with_a_warning_and_cannot_be_saved_back(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["other.npz"]
 
 
+def test_one_unnamed_array_loads_as_bare_uv(tmp_path):
+    """Issue 39: np.savez(path, uv) stores 'arr_0', which was refused (no 'uv' array)."""
+    uv = np.random.default_rng(5).normal(size=(N, 2))
+    np.savez(tmp_path / "unnamed.npz", uv)
+    with pytest.warns(UserWarning, match=r"unnamed\.npz: .*unknown: lambda_inv"):
+        bare = ParamResult.load(tmp_path / "unnamed.npz", n_points=N)
+    np.testing.assert_array_equal(bare.uv, uv)
+    np.savez(tmp_path / "two.npz", uv, uv)  # arr_0 and arr_1: which is the map is unknown
+    with pytest.raises(InputError, match=r"two\.npz: no 'uv' array \(found: arr_0, arr_1\)"):
+        ParamResult.load(tmp_path / "two.npz")
+    np.savez(tmp_path / "flat.npz", uv.ravel())  # one unnamed array, of the wrong shape
+    with pytest.raises(InputError, match=r"flat\.npz: 'uv' must have shape \(N, 2\)"):
+        ParamResult.load(tmp_path / "flat.npz")
+
+
 # --------------------------------------------------------------------------- load errors
 
 

@@ -157,7 +157,8 @@ class ParamResult:
     def load(cls, path, n_points: int | None = None, against: str = "the cloud") -> "ParamResult":
         """Read a map written by ``pcgeom param`` or :meth:`save`.
 
-        A file with only a ``uv`` array (another tool's map) loads too, for evaluation.
+        A file with only a ``uv`` array (another tool's map), or with one unnamed array
+        (``np.savez(path, uv)``: ``arr_0``), loads too, for evaluation.
 
         Parameters
         ----------
@@ -188,6 +189,8 @@ class ParamResult:
                 data = {key: archive[key] for key in archive.files}
         except Exception as exc:  # zipfile.BadZipFile, OSError, ValueError (pickled data), ...
             raise InputError(f"{name}: cannot parse: {_one_line(exc)}") from None
+        if "uv" not in data and list(data) == ["arr_0"]:
+            data = {"uv": data["arr_0"]}  # np.savez(path, uv): one unnamed array, a bare map
         if "uv" not in data:
             found = ", ".join(sorted(data)) or "none"
             raise InputError(f"{name}: no 'uv' array (found: {found}); "
