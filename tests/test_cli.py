@@ -474,7 +474,8 @@ def test_evaluate_plot_dir_writes_the_four_figures(tmp_path, capsys, tiny):
     mesh = tmp_path / "mesh.ply"
     write_ply_atomic(mesh, V, F)
     out = tmp_path / "m.npz"
-    assert cli.main(["param", str(mesh), "--quiet", "--out", str(out)]) == 0
+    assert cli.main(["param", str(mesh), "--preset", "networks", "--quiet", "--out",
+                     str(out)]) == 0
     capsys.readouterr()
     figs = tmp_path / "figs"
     assert cli.main(["evaluate", str(mesh), str(out), "--plot", str(figs), "--json"]) == 0
@@ -493,7 +494,17 @@ def test_evaluate_plot_dir_writes_the_four_figures(tmp_path, capsys, tiny):
     captured = capsys.readouterr()
     assert (f"figures: {figs / names['angles']}, {figs / names['map']}, "
             f"{figs / names['checker']}\n") in captured.out
-    assert "history.png" not in captured.out
+    assert captured.out.endswith("  no history.png: the map records no loss per stage (a "
+                                 "local-mesh map, as preset fast makes, or a bare uv file)\n")
+
+    # Issue 39: a fast map (the local mesh's, no loss per stage) wrote an empty history.png.
+    fast = tmp_path / "fast.npz"
+    assert cli.main(["param", str(mesh), "--quiet", "--out", str(fast)]) == 0
+    figs2 = tmp_path / "figs2"
+    capsys.readouterr()
+    assert cli.main(["evaluate", str(mesh), str(fast), "--plot", str(figs2), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["plots"]["history"] is None
+    assert _files(figs2) == {names[k] for k in ("angles", "map", "checker")}
 
 
 def test_evaluate_errors(tmp_path, capsys, mesh_and_map):

@@ -10,7 +10,7 @@ import pytest
 
 from pcgeom import cli, parametrize
 from pcgeom.apps.baselines import harmonic_disk, lscm
-from pcgeom.apps.evaluate import (PLOT_FILES, angle_figures, evaluate_map, landmark_hausdorff,
+from pcgeom.apps.evaluate import (PLOT_FILES, angle_figures, evaluate_map, has_losses, landmark_hausdorff,
                                   map_report, plot_evaluation, run_baselines,
                                   vertex_angle_distortion)
 from pcgeom.apps.plot import plot_angle_histogram
@@ -135,6 +135,12 @@ def test_plot_evaluation_writes_the_figures(tmp_path):
         assert path.read_bytes()[:8] == PNG_SIGNATURE
     no_history = plot_evaluation(evaluate_map(U, V, F, baselines=()), tmp_path / "figs2")
     assert no_history["history"] is None and not (tmp_path / "figs2" / "history.png").exists()
+    # A local-mesh map's history (preset fast) records no loss: no (empty) figure.
+    local = [{"stage": "localmesh", "kind": "localmesh", "flips": 0, "seconds": 0.1}]
+    assert not has_losses(local) and has_losses(history) and not has_losses([])
+    written = plot_evaluation(evaluate_map(U, V, F, history=local, baselines=()),
+                              tmp_path / "figs3")
+    assert written["history"] is None and not (tmp_path / "figs3" / "history.png").exists()
 
 
 def test_angle_histogram_overlay_rejects_bad_values(tmp_path):

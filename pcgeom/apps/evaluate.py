@@ -26,7 +26,7 @@ from .baselines import BASELINES, SPHERE_BASELINES
 __all__ = ["map_report", "angle_figures", "factor_figures", "landmark_hausdorff",
            "EVALUATION_BASELINES", "SPHERE_EVALUATION_BASELINES",
            "BaselineRun", "run_baselines", "Evaluation", "evaluate_map",
-           "vertex_angle_distortion", "PLOT_FILES", "plot_evaluation", "plot_angle_histograms",
+           "vertex_angle_distortion", "PLOT_FILES", "has_losses", "plot_evaluation", "plot_angle_histograms",
            "mesh_holes", "domain_holes", "hole_landing", "hole_landmarks", "HOLE_TARGET_SPACING"]
 
 ANGLE_KEYS = ("mean_abs_angle_rad", "median_abs_angle_rad", "p95_abs_angle_rad",
@@ -288,6 +288,15 @@ def _baseline_histograms(evaluation: Evaluation) -> dict:
             if run.angles is not None}
 
 
+def has_losses(history) -> bool:
+    """Whether some stage of ``history`` recorded a positive loss term (``LOSS_TERMS``):
+    the network stages do; a local-mesh map's record (preset ``fast``) does not."""
+    from ..train.objective import LOSS_TERMS
+
+    return any(isinstance(row, dict) and isinstance(row.get(term), (int, float))
+               and row[term] > 0 for row in history or () for term in LOSS_TERMS)
+
+
 def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
                     squares: int | None = None) -> dict:
     """The figures of ``pcgeom evaluate --plot DIR``, written into ``out_dir`` (created if
@@ -302,7 +311,9 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
       square as ``pcgeom reconstruct`` writes its texture coordinates), beside the surface
       coloured by angle distortion per triangle (the mean of its corners); None for an
       evaluation without the mesh's vertices;
-    - ``history``: the loss terms at the end of each stage (none for a map without history).
+    - ``history``: the loss terms at the end of each stage; None (no file) for a map without
+      a stage that recorded a loss (:func:`has_losses`: a bare ``uv`` file, or a local-mesh
+      map such as preset ``fast``'s, whose history holds no loss: the figure would be empty).
 
     Returns
     -------
@@ -339,7 +350,7 @@ def plot_evaluation(evaluation: Evaluation, out_dir, title: str | None = None,
                 out_dir / PLOT_FILES["checker"], squares=squares,
                 values=evaluation.angles.per_corner.mean(axis=1),
                 value_label="angle distortion per triangle (rad)", title=title)
-    if evaluation.history:
+    if has_losses(evaluation.history):
         written["history"] = plot_history(evaluation.history, out_dir / PLOT_FILES["history"],
                                           title=f"{prefix}loss per stage")
     return written

@@ -9,6 +9,8 @@ import sys
 from pathlib import Path
 
 from ..apps.evaluate import PLOT_FILES, evaluate_map
+
+NO_HISTORY_REASON = "a local-mesh map, as preset fast makes, or a bare uv file"
 from ..errors import InputError
 from ..io import ParamResult, check_writable, read_points
 from ._common import (EXIT_OK, add_output_options, distinct_paths, print_angles,
@@ -31,7 +33,7 @@ examples:
       figures/{PLOT_FILES['map']} (the map coloured by angle distortion),
       figures/{PLOT_FILES['checker']} (the mesh with a checkerboard in the map's
       coordinates, beside it coloured by angle distortion) and
-      figures/{PLOT_FILES['history']} (the loss terms per stage)
+      figures/{PLOT_FILES['history']} (the loss terms per stage, for a map trained in stages)
   pcgeom evaluate statue.ply statue_uv.npz --plot figures/
       a map onto the sphere: figures/{PLOT_FILES['map']} and
       figures/{PLOT_FILES['sphere_factor']} (the sphere and an equirectangular picture)
@@ -149,6 +151,9 @@ def run(args) -> int:
               f"{base['flipped']} flipped ({base['flipped_percent']:.2f}%)")
     if plots:
         print("figures: " + ", ".join(v for v in plots.values() if v is not None))
+        if "history" in plots and plots["history"] is None:
+            print(f"  no {PLOT_FILES['history']}: the map records no loss per stage "
+                  f"({NO_HISTORY_REASON})")
     return EXIT_OK
 
 
