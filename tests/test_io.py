@@ -225,7 +225,7 @@ def test_ply_with_zero_vertices(tmp_path):
 @pytest.mark.parametrize(
     "name, content, match",
     [
-        ("g.ply", b"hello garbage\x00\xff\n1 2\n", r"g\.ply: not a PLY file \(it does not "
+        ("g.ply", b"hello garbage\x00\xff\n1 2\n", r"g\.ply: cannot parse: not a PLY file \(it does not "
                                                 r"start with 'ply'\)"),
         ("g.off", b"hello world\nfoo\n", r"g\.off: cannot parse: "),
         ("g.npz", b"PK not really a zip", r"g\.npz: cannot parse: "),

@@ -138,7 +138,8 @@ def _check_ply(path: Path, name: str) -> None:
     with open(path, "rb") as f:
         head = f.read(1 << 16)
         if not head.startswith(b"ply"):
-            raise InputError(f"{name}: not a PLY file (it does not start with 'ply')")
+            raise InputError(f"{name}: cannot parse: not a PLY file (it does not start with "
+                             "'ply')")
         end = head.find(b"end_header")
         if end < 0:
             raise InputError(f"{name}: malformed PLY header: no 'end_header' line")
