@@ -130,8 +130,8 @@ def cut_graph(V: np.ndarray, F: np.ndarray, *, roots: int = 1
         from ..mesh import boundary_loops
 
         b = len(boundary_loops(F))
-        cut, info = _tree_cotree(V, F, E, G, length, np.flatnonzero(on_rim), (2 - chi - b) // 2,
-                                 on_rim=on_rim, rim=rim)
+        cut, info = _tree_cotree(V, F, E, G, length, np.flatnonzero(on_rim),
+                                 genus=(2 - chi - b) // 2, on_rim=on_rim, rim=rim)
         info["boundary_loops"] = b
     elif genus == 0:
         a = int(np.argmax(np.linalg.norm(V - V.mean(axis=0), axis=1)))
@@ -146,7 +146,7 @@ def cut_graph(V: np.ndarray, F: np.ndarray, *, roots: int = 1
         far = dijkstra(G, indices=start)
         for _ in range(max(int(roots), 1)):
             root = candidates[-1]
-            E_cut, info = _tree_cotree(V, F, E, G, length, root, genus)
+            E_cut, info = _tree_cotree(V, F, E, G, length, root, genus=genus)
             total = float(length[E_cut].sum())
             if best is None or total < best[0]:
                 best = (total, E_cut, info)
@@ -163,7 +163,7 @@ def _keys(he: np.ndarray, n: int) -> np.ndarray:
     return np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
 
 
-def _tree_cotree(V, F, E, G, length, root, genus: int, *, on_rim=None, rim=None
+def _tree_cotree(V, F, E, G, length, root, *, genus: int, on_rim=None, rim=None
                  ) -> tuple[np.ndarray, dict]:
     """The pruned tree-cotree cut graph from ``root`` (steps 1-3 of the module). On a mesh
     with a boundary, ``root`` is all its vertices (``on_rim``; ``rim``: its edges), contracted
