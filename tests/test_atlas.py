@@ -241,8 +241,8 @@ def test_more_roots_never_longer():
     assert euler_characteristic(Fc) == 1 and len(boundary_loops(Fc)) == 1
 
 
-def test_overlap_warns(monkeypatch, torus):
-    """A chart whose boundary crosses itself is reported (record and warning), never silent."""
+def test_an_overlapping_atlas_is_an_error(monkeypatch, torus):
+    """A chart whose boundary crosses itself cannot be right: a one-line error, no result."""
     import pcgeom.maps.atlas as atlas
 
     real = atlas.chart_map
@@ -255,6 +255,6 @@ def test_overlap_warns(monkeypatch, torus):
         return U, info
 
     monkeypatch.setattr(atlas, "chart_map", crossed)
-    with pytest.warns(UserWarning, match="the atlas overlaps itself"):
-        r = parametrize(torus.points, cut="auto", progress=False)
-    assert r.history[-1]["overlap"] is True and r.history[-1]["overlap_area"] > 0
+    with pytest.raises(InputError, match=r"the atlas of this cloud is not one-to-one \(0 "
+                       r"triangles turned over, [0-9.]+% of its area covered twice"):
+        parametrize(torus.points, cut="auto", progress=False)

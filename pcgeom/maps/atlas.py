@@ -40,7 +40,7 @@ from ..errors import InputError
 from ..mesh import boundary_loops, signed_areas
 from .seams import cut_graph, cut_open, euler_characteristic
 
-__all__ = ["atlas_map", "chart_map", "pack_one", "boundary_simple", "overlap_area",
+__all__ = ["OVERLAPS", "atlas_map", "chart_map", "pack_one", "boundary_simple", "overlap_area",
            "CUTS", "GUTTER", "MAX_STRETCH", "check_cut"]
 
 CUTS = ("none", "auto")
@@ -197,6 +197,14 @@ def _vertex_scale(V: np.ndarray, U: np.ndarray, F: np.ndarray, n: int) -> np.nda
     return np.sqrt(s3 / np.maximum(s2, 1e-300))
 
 
+OVERLAPS = ("--cut auto: the atlas of this cloud is not one-to-one ({flips} triangles turned over, "
+            "{share:.2f}% of its area covered twice: the free boundary of its chart crosses "
+            "itself); the extra seams and charts that would separate it are not built yet: map "
+            "it without --cut")
+"""The one-line error of an atlas that folds or overlaps (seen on open clouds whose repaired
+local mesh keeps false holes and handles, each of which gets a seam)."""
+
+
 def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: bool,
               outlier: np.ndarray | None = None, max_stretch: float = MAX_STRETCH,
               gutter: float = GUTTER) -> dict:
@@ -219,11 +227,9 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
     InputError
         As :func:`pcgeom.maps.localmesh.mesh_cloud` (not a surface).
 
-    Warns
-    -----
-    UserWarning
-        The chart overlaps itself (its boundary is not simple: the free boundary of LSCM
-        crossing itself, seen on open clouds whose repaired local mesh keeps false holes).
+        The chart turns a triangle over or overlaps itself (its boundary is not simple: the
+        free boundary of LSCM crossing itself, seen on open clouds whose repaired local mesh
+        keeps false holes): :data:`OVERLAPS`.
     """
     from scipy.spatial import cKDTree
 
@@ -269,12 +275,9 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
     chart = np.zeros(len(Xn), dtype=np.int64)
     simple = boundary_simple(U, Fc)
     covered_twice = 0.0 if simple else overlap_area(U, Fc)
-    if not simple:
-        import warnings
-
-        warnings.warn(f"the atlas overlaps itself: {100 * covered_twice:.2f}% of its area is "
-                      "covered twice (its boundary crosses itself; the stretch-driven extra "
-                      "seams and charts that would separate it are not built yet)", stacklevel=3)
+    if info["flips"] or not simple:
+        # An atlas that overlaps or folds cannot be right: an error, never a result.
+        raise InputError(OVERLAPS.format(flips=info["flips"], share=100 * covered_twice))
     record.update(kind="localmesh", onto="free", cut="auto", seams=seams, charts=1,
                   cut_euler=euler_characteristic(Fc), cut_loops=len(boundary_loops(Fc)),
                   lscm_flips=info["lscm_flips"], untangled=info["untangled"],
