@@ -692,3 +692,20 @@ def test_cli_meshes_the_domain_of_a_disk_map(tmp_path, capsys, sheet):
     assert len(mesh.points) == summary["n_vertices"]
     # The sheet is the plane z = 0.1 x: every lifted vertex stays on it.
     np.testing.assert_allclose(mesh.points[:, 2], 0.1 * mesh.points[:, 0], atol=1e-12)
+    # Issue 39: the sheet's hole is filled (the disk has none), and the command says so.
+    assert [line for line in captured.err.splitlines() if "hole" in line] == [
+        f"pcgeom: warning: {src}: the cloud has 1 hole(s) and the domain disk 0: the mesh "
+        "covers the whole domain and fills 1 of them; to keep them, reconstruct without "
+        "--domain (the free boundary)"]
+
+
+def test_unkept_holes_counts_the_clouds_holes_against_the_domains():
+    from pcgeom.apps.boundary import unkept_holes
+
+    for hole, expected in (((5, 8), 1), (None, 0)):
+        U = _grid(16, hole)
+        uv = U - U.mean(axis=0)
+        uv /= 1.05 * np.linalg.norm(uv, axis=1).max()
+        P = np.column_stack([U, 0.1 * U[:, 0]])
+        assert unkept_holes(uv, get_domain("disk"), points=P) == (expected, 0)
+        assert unkept_holes(uv, get_domain("annulus"), points=P) == (expected, 1)

@@ -184,7 +184,7 @@ from ..errors import InputError
 from ..mesh import shoelace, signed_areas, unique_edges
 from .planar import delaunay, distinct_points, validate_map
 
-__all__ = ["BoundaryLoops", "detect_boundary", "local_spacing", "hole_width", "DEFAULT_C",
+__all__ = ["BoundaryLoops", "detect_boundary", "unkept_holes", "local_spacing", "hole_width", "DEFAULT_C",
            "DEFAULT_MIN_LOOP", "DEFAULT_MIN_WIDTH"]
 
 DEFAULT_C = 1.0
@@ -531,3 +531,32 @@ def detect_boundary(U, h: float | None = None, *, c: float = DEFAULT_C,
         widths=None if X is None else widths[kept],
         min_width=None if X is None else float(min_width),
     )
+
+
+def unkept_holes(U, domain, points=None, **options) -> tuple[int, int]:
+    """How many holes a map onto ``domain`` shows, and how many the domain has.
+
+    The holes of the cloud are the hole loops of :func:`detect_boundary` on its map (a
+    hole of the surface stays an empty region of the map whatever the domain); a mesh of
+    the domain itself (``pcgeom reconstruct --domain``) fills every one beyond the
+    domain's own holes.
+
+    Parameters
+    ----------
+    U : (N, 2) array_like
+        The map onto ``domain``.
+    domain : pcgeom.domains.Domain
+        A bounded domain (its holes: its boundary loops but the outer one).
+    points : (N, 3) array_like, optional
+        The surface the map was made of, as :func:`detect_boundary` takes it.
+    **options
+        ``min_width``, ``cloud_spacing`` as :func:`detect_boundary`.
+
+    Returns
+    -------
+    (int, int)
+        The map's holes and the domain's.
+    """
+    found = detect_boundary(U, points=points, **options)
+    return int((np.asarray(found.areas) < 0).sum()), len(domain.boundary_loops()) - 1
+

@@ -5,8 +5,9 @@ from __future__ import annotations
 import json
 import os
 import sys
+import warnings
 
-from ..apps.boundary import detect_boundary
+from ..apps.boundary import detect_boundary, unkept_holes
 from ..apps.reconstruct import (INTERPOLATIONS, SIZES, check_mesh_path, reconstruct_on_domain,
                                  reconstruct_on_sphere, reconstruct_surface, require_gmsh,
                                  texture_paths, write_mesh)
@@ -179,7 +180,15 @@ def _summary(args, points, result, out, report: dict, **extra) -> dict:
 
 
 def _on_domain(args, points, result, domain, out) -> int:
-    """The mesh of the domain itself, lifted over the map's Delaunay triangles."""
+    """The mesh of the domain itself, lifted over the map's Delaunay triangles; one warning
+    line when the cloud has holes the domain has not (the mesh fills them)."""
+    holes, kept = unkept_holes(result.uv, domain, points=points, min_width=args.min_width,
+                               cloud_spacing=args.cloud_spacing)
+    if holes > kept:
+        warnings.warn(f"{args.input}: the cloud has {holes} hole(s) and the domain "
+                      f"{domain.label} {kept}: the mesh covers the whole domain and fills "
+                      f"{holes - kept} of them; to keep them, reconstruct without --domain "
+                      "(the free boundary)", UserWarning, stacklevel=2)
     V, F, Q, report = reconstruct_on_domain(points, result.uv, domain, size=args.size,
                                             target_vertices=args.target_vertices,
                                             lambda_inv=result.lambda_inv, return_uv=True)
