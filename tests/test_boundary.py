@@ -555,4 +555,5 @@ def test_cli_maps_with_the_files_normals_as_param_does(tmp_path, capsys):
 
     _fails(capsys, ["boundary", str(src), "--map", str(map_path), "--normals", "ignore",
                     "--out", str(tmp_path / "x.json")],
-           "--normals applies when boundary maps the cloud itself; with --map")
+           "--normals applies only without --map (when the cloud is mapped here); a map's "
+           "normals were chosen by 'pcgeom param --normals'")

@@ -699,6 +699,21 @@ def test_cli_meshes_the_domain_of_a_disk_map(tmp_path, capsys, sheet):
         "--domain (the free boundary)"]
 
 
+def test_cli_maps_with_the_files_normals_as_param_does(tmp_path, capsys):
+    """Issue 39 (as for boundary): without --map, reconstruct mapped the bare points."""
+    U = _grid(12)
+    P = np.column_stack([U, 0.1 * U[:, 0]])
+    N = np.tile(np.array([-0.1, 0.0, 1.0]) / np.hypot(0.1, 1.0), (len(P), 1))
+    src = tmp_path / "oriented.xyz"
+    np.savetxt(src, np.column_stack([P, N]))
+    normals = {}
+    for label, extra in (("auto", []), ("ignore", ["--normals", "ignore"])):
+        assert cli.main(["reconstruct", str(src), "--out", str(tmp_path / f"{label}.ply"),
+                         "--target-vertices", "100", "--quiet", "--json", *extra]) == 0
+        normals[label] = json.loads(capsys.readouterr().out)["normals"]
+    assert normals == {"auto": "input", "ignore": "estimated"}
+
+
 def test_unkept_holes_counts_the_clouds_holes_against_the_domains():
     from pcgeom.apps.boundary import unkept_holes
 

@@ -88,6 +88,26 @@ def add_hole_options(p: argparse.ArgumentParser) -> None:
                         "see pcgeom.apps.boundary)")
 
 
+def add_normals_option(p: argparse.ArgumentParser) -> None:
+    """``--normals auto|ignore`` of the commands that map the cloud themselves without
+    ``--map`` (shared with ``pcgeom reconstruct``)."""
+    p.add_argument("--normals", choices=NORMALS_CHOICES, default="auto",
+                   help="without --map: auto: map with the file's oriented normals (PLY nx ny "
+                        "nz, NPZ 'normals', six-column XYZ, LAS) when it has them, as 'pcgeom "
+                        "param' does; ignore: do not read them (default: auto)")
+
+
+def read_cloud(args):
+    """INPUT as ``pcgeom param`` reads it to map it (its normals unless ``--normals
+    ignore``), or without normals when ``--map`` gives the map; ``--normals`` with ``--map``
+    is refused."""
+    if args.map is not None and args.normals != "auto":
+        raise InputError("--normals applies only without --map (when the cloud is mapped "
+                         "here); a map's normals were chosen by 'pcgeom param --normals'")
+    # validated: finite, >= 10 distinct, a surface
+    return read_points(args.input, normals=args.map is None and args.normals == "auto")
+
+
 def configure(p: argparse.ArgumentParser) -> None:
     """Add ``boundary``'s arguments to ``p``."""
     add_cloud_and_map(p)
@@ -95,10 +115,7 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="remove every triangle with an edge longer than H in the map (the "
                         "paper's rule; default: a rule from the local point spacing)")
     add_hole_options(p)
-    p.add_argument("--normals", choices=NORMALS_CHOICES, default="auto",
-                   help="without --map: auto: map with the file's oriented normals (PLY nx ny "
-                        "nz, NPZ 'normals', six-column XYZ, LAS) when it has them, as 'pcgeom "
-                        "param' does; ignore: do not read them (default: auto)")
+    add_normals_option(p)
     add_output_options(p, "LOOPS.json", "the loops, as JSON", required=True)
     p.add_argument("--plot", metavar="LOOPS.png",
                    help="also draw the map with the loops and the removed triangles")
@@ -108,11 +125,7 @@ def configure(p: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     """Run ``pcgeom boundary`` on parsed arguments; returns the exit status."""
     # Everything that can be wrong with the request is checked before any training.
-    if args.map is not None and args.normals != "auto":
-        raise InputError("--normals applies when boundary maps the cloud itself; with --map, "
-                         "the map's own normals were chosen by 'pcgeom param --normals'")
-    # validated: finite, >= 10 distinct, a surface; with the file's normals (as param reads it)
-    cloud = read_points(args.input, normals=args.map is None and args.normals == "auto")
+    cloud = read_cloud(args)
     points = cloud.points
     out = check_writable(args.out, "json")
     plot = check_writable(args.plot, "png") if args.plot else None

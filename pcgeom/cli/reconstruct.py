@@ -15,9 +15,8 @@ from ..apps.texture import uv_scaling
 from ..config import get_preset, with_denoise
 from ..domains import get_domain
 from ..errors import InputError
-from ..io import read_points
 from ..maps import parametrize
-from .boundary import add_hole_options
+from .boundary import add_hole_options, add_normals_option, read_cloud
 from ._common import (EXIT_OK, add_cloud_and_map, add_denoise_option, add_output_options,
                       add_texture_option, distinct_paths, int_at_least, load_free_map,
                       print_noise, run_command, standalone_parser, texture_line)
@@ -86,6 +85,7 @@ def configure(p) -> None:
                         "--domain'; the map must be onto it) instead of the region inside the "
                         "detected loops; a map onto the sphere needs no --domain")
     add_hole_options(p)
+    add_normals_option(p)
     p.add_argument("--size", choices=SIZES, default="uniform",
                    help="mesh size rule: uniform (default), or adaptive: size proportional to "
                         "lambda_inv^-1/2 of the map (finer where the map compresses the "
@@ -105,7 +105,8 @@ def configure(p) -> None:
 def run(args) -> int:
     """Run ``pcgeom reconstruct`` on parsed arguments; returns the exit status."""
     # Everything that can be wrong with the request is checked before any training.
-    points = read_points(args.input).points
+    cloud = read_cloud(args)  # with its normals when mapped here, as 'pcgeom param' maps it
+    points = cloud.points
     if args.denoise is not None and args.map is not None:
         raise InputError("--denoise: the map is read from --map; denoise when making it "
                          "(pcgeom param --denoise), or drop --map")
@@ -128,7 +129,7 @@ def run(args) -> int:
             if args.texture is not None:
                 raise InputError(_NO_TEXTURE)
     else:
-        result = parametrize(points, domain if domain is not None else "free",
+        result = parametrize(cloud, domain if domain is not None else "free",
                              config=config, progress=not args.quiet)
     # A denoised map was made of the fitted points: the mesh is lifted over them.
     lifted = result.fitted if result.fitted is not None else points
@@ -175,6 +176,10 @@ def _summary(args, points, result, out, report: dict, **extra) -> dict:
         **extra,
         **report,
         "mapped_seconds": None if args.map is not None else float(result.seconds),
+        # the normals the map was made with: "input", "estimated" (a local-mesh map's), or
+        # None where its history does not record them
+        "normals": next((r for r in result.history if r.get("stage") != "denoise"),
+                        {}).get("normals"),
         "denoise": result.denoise,
     }
 
