@@ -157,10 +157,12 @@ def test_evaluation_of_a_sphere_map(tmp_path, ellipsoid, ellipsoid_map):
     factor = report["conformal_factor"]
     assert 0.5 < factor["p5"] < factor["median"] < factor["p95"] < 2.0
     written = plot_evaluation(ev, tmp_path / "figs")
-    for key in ("angles", "map", "sphere_factor", "history"):
+    for key in ("angles", "map", "sphere_factor"):
         assert written[key] == tmp_path / "figs" / PLOT_FILES[key]
         assert written[key].read_bytes()[:8] == PNG_SIGNATURE
-    assert written["checker"] is None
+    # No checkerboard on the sphere; no history figure for a map whose history holds no loss.
+    assert written["checker"] is None and written["history"] is None
+    assert not (tmp_path / "figs" / PLOT_FILES["history"]).exists()
 
 
 def test_cli_param_and_evaluate_on_the_sphere(tmp_path, ellipsoid, capsys):
