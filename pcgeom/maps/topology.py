@@ -576,7 +576,7 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
                 trial, more, stuck, long = _fill_pass(X, normals, trial, h, GROW_LOOP * bound,
                                                       exclude, folds=True, grow=np.inf)
                 added += more
-                if not (len(stuck) or long):
+                if not (more or len(stuck)):  # (two fills of one pass may share an edge)
                     break
             if (len(trial) and measure(trial)["boundary_loops"] == 0
                     and len(np.unique(trial)) >= TRIAL_KEEP * len(np.unique(faces))):
@@ -667,6 +667,8 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
             continue
         if narrow(F):
             fills.append(F)
+        elif perimeter <= grow * circle:  # its fill covers meshed points or is too wide
+            stuck.append(loop)
         else:  # a hole of the surface
             long += 1
     added = 0
