@@ -69,6 +69,18 @@ def test_closed_clouds_are_refused_on_planar_domains_in_one_line():
         parametrize(torus.points, normals=torus.normals, progress=False)
 
 
+def test_the_networks_refuse_a_closed_cloud_too():
+    """The networks build no local mesh of their own: a closed cloud is refused before any
+    training, as on the local-mesh maps, with the same line."""
+    from .helpers import tiny_preset
+
+    sphere = closed_surface("ellipsoid", 2000, sampling="uniform")
+    for domain in ("free", "square"):
+        with pytest.raises(InputError, match=r"^the cloud is a closed surface \(genus 0\): a "
+                           rf"planar domain \({domain}\) has no map of it"):
+            parametrize(sphere.points, domain, config=tiny_preset("networks"), progress=False)
+
+
 def test_require_open_and_the_record():
     fields = dict(genus=0, boundary_loops=0, euler=2, components=1, vertices=10, faces=16,
                   pinched=0, pinches_split=0, pinches_repaired=0, holes_filled=0, spans_cut=0,

@@ -42,10 +42,11 @@ from ..train.plan import stage_plan
 from .atlas import MAX_STRETCH, atlas_map, check_cut
 from .disk import disk_map
 from .domain import domain_map, resolve_domain
-from .free import free_map, free_start
+from .free import free_map, free_start, mesh_for
 from .networks import build_networks, run_network_stage
 from .refine import refine
 from .sphere import sphere_map
+from .topology import require_open
 
 __all__ = ["parametrize", "choose_map", "MAPS"]
 
@@ -322,6 +323,7 @@ def parametrize(
         U, lam_inv, history = domain_map(Xn, normals, config, domain, data, objective,
                                          progress=progress, on_stage=report, start=start)
         return result(_numpy(U), _numpy(lam_inv), history, start[1])
+    _refuse_closed(Xn, normals, config, domain, outlier)
     stages = stage_plan(len(Xn), data.n_domain, config.schedule, config.max_stages)
     nets = build_networks(config, Xn, domain, data)
     history: list[dict] = []
@@ -360,6 +362,19 @@ def parametrize(
         history.append(record)
         report(record, U)
     return result(_numpy(U), _numpy(lam_inv), history)
+
+
+def _refuse_closed(Xn: np.ndarray, normals, config: ParamConfig, domain: Domain,
+                   outlier: np.ndarray) -> None:
+    """The networks build no local mesh, so a closed cloud would get a planar map that folds
+    without a word: its local mesh is built for its topology alone, and a closed one is refused
+    as on the local-mesh maps (:func:`pcgeom.maps.topology.require_open`). A cloud the local
+    mesh cannot take (too few points, not one surface) goes on to the networks as before."""
+    try:
+        mesh = mesh_for(Xn, normals, config, progress=False, outlier=outlier, onto=None)[0]
+    except InputError:
+        return
+    require_open(mesh.topology, domain.label)
 
 
 def _denoise(Xn: np.ndarray, normals, config: ParamConfig, lm_points: list) -> tuple:
