@@ -18,7 +18,8 @@ module                 what it makes
 :mod:`.domain`         the map onto any other bounded domain: :func:`domain_map` (the
                        Riemann composition; onto a domain with holes or with
                        landmarks the barrier map, :func:`injective_onto`,
-                       :func:`landmarks_onto`; a disk with landmarks turned by
+                       :func:`landmarks_onto`, the disk included; with
+                       ``domain_method="harmonic"`` a disk with landmarks turned by
                        :func:`align_onto` and refined; :func:`harmonic_onto`, the
                        layout with holes on holes)
 :mod:`.injective`      the barrier map: a bijection of the local mesh onto a domain

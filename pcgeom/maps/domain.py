@@ -537,17 +537,17 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
     """The local-mesh map onto a bounded domain (the run step of ``domain_map =
     "localmesh"``), by ``config.local_mesh.domain_method``:
 
-    - a disk (with landmarks: a disk without them is :func:`pcgeom.maps.disk.disk_map`): the
-      conformal disk map turned and mirrored by :func:`align_onto` as the landmarks fit best,
-      then refined;
-    - ``"injective"`` (the default), a domain without holes and no landmarks:
+    - ``"injective"`` (the default), a domain without holes and no landmarks (a disk without
+      landmarks never comes here: :func:`pcgeom.maps.disk.disk_map`):
       :func:`pcgeom.maps.riemann.riemann_onto`, the disk map composed with the domain's
       inverse Riemann map; with landmarks: :func:`landmarks_onto`, that map made to meet the
       landmarks by the barrier map (``config.injective_landmarks``); a domain with holes:
       :func:`injective_onto`, the harmonic layout made a bijection by the barrier map
       (``config.injective``). None of them is refined, which could only fold them; where a
       domain hole gets no hole of the cloud the harmonic layout is refined instead;
-    - ``"harmonic"``: :func:`harmonic_onto`, then refined.
+    - ``"harmonic"``: onto a disk with landmarks the conformal disk map turned and mirrored by
+      :func:`align_onto` as the landmarks fit best, onto other domains :func:`harmonic_onto`;
+      then refined.
 
     The refinement is :func:`pcgeom.maps.refine.refine` with
     ``config.local_mesh.domain_refine``: LEG (local pairs), HAND onto the domain sample
@@ -592,7 +592,7 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
              for p, q in zip(data.landmark_points, data.landmark_targets)]
     refine_config = config.local_mesh.domain_refine
     method = "harmonic"
-    if isinstance(domain, Disk):
+    if isinstance(domain, Disk) and config.local_mesh.domain_method != "injective":
         # The conformal disk map is the better start (three peaks, refined: 0.026 rad and no
         # flip from it, 0.045 rad and 261 flips from the harmonic map); the landmarks choose
         # its turn.

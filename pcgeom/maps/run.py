@@ -56,7 +56,7 @@ MAPS = {
     "domain": "onto a domain without holes, the disk map composed with its inverse Riemann "
               "map (pcgeom.maps.riemann); onto a domain with holes, or with landmarks, the "
               "barrier map that folds nothing (pcgeom.maps.domain, pcgeom.maps.injective); "
-              "onto a disk with landmarks, or where a domain hole gets no hole of the cloud, "
+              "where a domain hole gets no hole of the cloud, "
               "the local mesh laid on the domain, then refined",
     "networks": "Algorithm 1's network stages, then the refinement (pcgeom.maps.networks)",
     "atlas": "cut='auto': seams open the local mesh into a disk, mapped without a fold and "
