@@ -537,8 +537,9 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
     """The local-mesh map onto a bounded domain (the run step of ``domain_map =
     "localmesh"``), by ``config.local_mesh.domain_method``:
 
-    - ``"injective"`` (the default), a domain without holes and no landmarks (a disk without
-      landmarks never comes here: :func:`pcgeom.maps.disk.disk_map`):
+    - a disk without landmarks comes here only with ``LocalMeshConfig.disk_refine`` (else
+      :func:`pcgeom.maps.disk.disk_map`): the conformal disk map, then refined;
+    - ``"injective"`` (the default), a domain without holes and no landmarks:
       :func:`pcgeom.maps.riemann.riemann_onto`, the disk map composed with the domain's
       inverse Riemann map; with landmarks: :func:`landmarks_onto`, that map made to meet the
       landmarks by the barrier map (``config.injective_landmarks``); a domain with holes:
@@ -592,7 +593,8 @@ def domain_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig,
              for p, q in zip(data.landmark_points, data.landmark_targets)]
     refine_config = config.local_mesh.domain_refine
     method = "harmonic"
-    if isinstance(domain, Disk) and config.local_mesh.domain_method != "injective":
+    barrier_marks = bool(marks) and config.local_mesh.domain_method == "injective"
+    if isinstance(domain, Disk) and not barrier_marks:
         # The conformal disk map is the better start (three peaks, refined: 0.026 rad and no
         # flip from it, 0.045 rad and 261 flips from the harmonic map); the landmarks choose
         # its turn.
