@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 __all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_ids",
-           "unique_edges", "mean_edge", "edge_sides", "unpaired", "boundary_loops", "main_part",
+           "unique_edges", "euler_characteristic", "mean_edge", "edge_sides", "unpaired", "boundary_loops", "main_part",
            "main_faces", "face_keys", "smaller_fans", "one_fan", "peel_rim", "RIM_ANGLE_DEG",
            "RIM_ANGLE"]
 
@@ -88,6 +88,12 @@ def unique_edges(F: np.ndarray, return_counts: bool = False):
     lexicographic order; with ``return_counts`` also how many triangles hold each, ``(E,)``
     (1 on the boundary, 2 inside a manifold)."""
     return np.unique(np.sort(half_edges(F), axis=1), axis=0, return_counts=return_counts)
+
+
+def euler_characteristic(F: np.ndarray) -> int:
+    """``V - E + F`` of the triangles ``F`` (M, 3) over the vertices they use."""
+    F = np.asarray(F, dtype=np.int64)
+    return int(len(np.unique(F)) - len(unique_edges(F)) + len(F))
 
 
 def mean_edge(P: np.ndarray, F: np.ndarray) -> float:

@@ -37,8 +37,8 @@ import time
 import numpy as np
 
 from ..errors import InputError
-from ..mesh import boundary_loops, signed_areas
-from .seams import cut_graph, cut_open, euler_characteristic
+from ..mesh import boundary_loops, euler_characteristic, signed_areas
+from .seams import cut_graph, cut_open
 
 __all__ = ["OVERLAPS", "atlas_map", "chart_map", "pack_one", "boundary_simple", "overlap_area",
            "CUTS", "GUTTER", "MAX_STRETCH", "check_cut"]

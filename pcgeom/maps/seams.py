@@ -37,15 +37,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, dijkstra, minimum_spanning_tree
 
-from ..mesh import half_edges, unique_edges
+from ..mesh import euler_characteristic, half_edges, unique_edges
 
 __all__ = ["cut_graph", "cut_open", "euler_characteristic"]
-
-
-def euler_characteristic(F: np.ndarray) -> int:
-    """``V - E + F`` of the triangles ``F`` (M, 3) over the vertices they use."""
-    F = np.asarray(F, dtype=np.int64)
-    return int(len(np.unique(F)) - len(unique_edges(F)) + len(F))
 
 
 def _edge_index(E: np.ndarray, n: int) -> dict:

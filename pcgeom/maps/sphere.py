@@ -85,15 +85,14 @@ def mesh_topology(F: np.ndarray, n: int | None = None) -> dict:
     ``euler = V - E + F`` over the vertices that triangles use, ``boundary_loops`` counted
     by :func:`pcgeom.mesh.boundary_loops`, ``genus = (2 - euler - loops) / 2``
     (one connected part), ``closed`` when no edge has one triangle only."""
-    from ..mesh import boundary_loops, unique_edges
+    from ..mesh import boundary_loops, euler_characteristic, unique_edges
 
     F = np.asarray(F, dtype=np.int64)
     uses = unique_edges(F, return_counts=True)[1]
-    n_v = len(np.unique(F))
-    euler = n_v - len(uses) + len(F)
+    euler = euler_characteristic(F)
     loops = len(boundary_loops(F)) if (uses == 1).any() else 0
-    return {"euler": int(euler), "boundary_loops": int(loops),
-            "closed": bool((uses == 1).sum() == 0), "genus": int((2 - euler - loops) // 2), "vertices": int(n_v)}
+    return {"euler": euler, "boundary_loops": int(loops), "closed": bool((uses == 1).sum() == 0),
+            "genus": int((2 - euler - loops) // 2), "vertices": int(len(np.unique(F)))}
 
 
 def _regular_triangle(V: np.ndarray, F: np.ndarray) -> int:
