@@ -149,7 +149,8 @@ def run(args) -> int:
                                           lambda_inv=result.lambda_inv, return_uv=True)
     report.update(_write(args, out, V, F, Q))
     summary = _summary(args, points, result, out, report, n_loops_detected=len(loops.loops))
-    return _print(args, points, report, summary, f"{len(loops.loops)} detected")
+    return _print(args, points, report, summary,
+                  _loops_line(report, f"{len(loops.loops)} detected"))
 
 
 def _write(args, out, V, F, Q) -> dict:
@@ -199,8 +200,8 @@ def _on_domain(args, points, result, domain, out) -> int:
                                             lambda_inv=result.lambda_inv, return_uv=True)
     report.update(_write(args, out, V, F, Q))
     summary = _summary(args, points, result, out, report)
-    return _print(args, points, report, summary,
-                  f"{report['n_domain_loops']} in the domain {domain.label}")
+    return _print(args, points, report, summary, _loops_line(
+        report, f"{report['n_domain_loops']} in the domain {domain.label}"))
 
 
 _NO_TEXTURE = ("--texture: a mesh of the sphere has no planar texture coordinates (the sphere "
@@ -215,36 +216,34 @@ def _on_sphere(args, points, result, out) -> int:
                                          interpolation=args.interpolation)
     write_mesh(out, V, F)
     summary = _summary(args, points, result, out, report)
+    shape = (f"  closed: watertight {report['watertight']}, winding-consistent "
+             f"{report['winding_consistent']}, Euler characteristic "
+             f"{report['euler_characteristic']} (genus {report['genus']:g}); lifted over the "
+             f"{report['triangulation']} of the sphere map, {report['interpolation']}")
+    return _print(args, points, report, summary, shape, texture=False)
+
+
+def _loops_line(report: dict, loops: str) -> str:
+    return (f"  boundary loops: {report['n_boundary_loops']} ({loops}), edge-manifold: "
+            f"{report['edge_manifold']}, oriented: {report['oriented']}")
+
+
+def _print(args, points, report: dict, summary: dict, shape: str, *,
+           texture: bool = True) -> int:
+    """The summary: JSON, or lines (``shape``: the mesh's loops or closedness; the texture
+    line unless the mesh has none)."""
     if args.json:
         print(json.dumps(summary))
         return EXIT_OK
     print(f"{args.input}: {len(points)} points -> {report['n_vertices']} vertices, "
           f"{report['n_faces']} triangles -> {summary['out']}")
-    print(f"  closed: watertight {report['watertight']}, winding-consistent "
-          f"{report['winding_consistent']}, Euler characteristic "
-          f"{report['euler_characteristic']} (genus {report['genus']:g}); lifted over the "
-          f"{report['triangulation']} of the sphere map, {report['interpolation']}")
+    print(shape)
     print(f"  vertex-to-cloud distance / diagonal: max {report['hausdorff_rel']:.4f}, "
           f"mean {report['mean_distance_rel']:.4f}")
     print(f"  triangles: min angle {report['min_angle_deg']:.1f} deg, "
           f"max aspect ratio {report['max_aspect_ratio']:.2f}")
-    print_noise(summary["denoise"])
-    return EXIT_OK
-
-
-def _print(args, points, report: dict, summary: dict, loops: str) -> int:
-    if args.json:
-        print(json.dumps(summary))
-        return EXIT_OK
-    print(f"{args.input}: {len(points)} points -> {report['n_vertices']} vertices, "
-          f"{report['n_faces']} triangles -> {summary['out']}")
-    print(f"  boundary loops: {report['n_boundary_loops']} ({loops}), edge-manifold: "
-          f"{report['edge_manifold']}, oriented: {report['oriented']}")
-    print(f"  vertex-to-cloud distance / diagonal: max {report['hausdorff_rel']:.4f}, "
-          f"mean {report['mean_distance_rel']:.4f}")
-    print(f"  triangles: min angle {report['min_angle_deg']:.1f} deg, "
-          f"max aspect ratio {report['max_aspect_ratio']:.2f}")
-    print(texture_line(report))
+    if texture:
+        print(texture_line(report))
     print_noise(summary["denoise"])
     return EXIT_OK
 
