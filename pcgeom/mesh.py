@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 __all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_ids",
-           "unique_edges", "euler_characteristic", "mean_edge", "edge_sides", "unpaired", "boundary_loops", "main_part",
+           "unique_edges", "euler_characteristic", "close_loops", "compact", "mean_edge", "edge_sides", "unpaired", "boundary_loops", "main_part",
            "main_faces", "face_keys", "smaller_fans", "one_fan", "peel_rim", "RIM_ANGLE_DEG",
            "RIM_ANGLE"]
 
@@ -94,6 +94,24 @@ def euler_characteristic(F: np.ndarray) -> int:
     """``V - E + F`` of the triangles ``F`` (M, 3) over the vertices they use."""
     F = np.asarray(F, dtype=np.int64)
     return int(len(np.unique(F)) - len(unique_edges(F)) + len(F))
+
+
+def close_loops(F: np.ndarray, loops) -> np.ndarray:
+    """``F`` (M, 3) with each of ``loops`` (boundary loops of ``F``, as
+    :func:`boundary_loops` orders them) closed by a fan of triangles from its first point,
+    oriented as the mesh (a boundary edge ``a -> b`` of a triangle gets ``b -> a``)."""
+    fans = [np.array([[loop[0], loop[k + 1], loop[k]] for k in range(1, len(loop) - 1)],
+                     dtype=np.int64).reshape(-1, 3) for loop in loops]
+    return np.concatenate([F, *fans]) if fans else F
+
+
+def compact(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices the triangles ``F`` use, ``(K,)`` ascending, and ``F`` renumbered onto
+    them (``0 .. K - 1``)."""
+    used = np.unique(F)
+    renumber = np.full(int(used[-1]) + 1 if len(used) else 0, -1, dtype=np.int64)
+    renumber[used] = np.arange(len(used))
+    return used, renumber[F]
 
 
 def mean_edge(P: np.ndarray, F: np.ndarray) -> float:

@@ -94,7 +94,7 @@ def _mesh_of(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray]:
     count (:attr:`pcgeom.maps.topology.Topology.boundary_loops`: 0 on a closed cloud), unless
     they have at most :data:`GAP` points; the others, gaps the fans leave, are closed by
     fans."""
-    from ..mesh import one_fan
+    from ..mesh import close_loops, compact, one_fan
     from .localmesh import _submesh
 
     index, _, F = _submesh(Xn, mesh.faces, mesh.main)
@@ -103,13 +103,8 @@ def _mesh_of(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray]:
     keep = 0 if measured is None else int(measured.boundary_loops)
     loops = sorted(boundary_loops(F), key=len, reverse=True)
     gaps = loops[keep:] + [loop for loop in loops[:keep] if len(loop) <= GAP]
-    fans = [F] + [np.array([[loop[0], loop[k + 1], loop[k]] for k in range(1, len(loop) - 1)],
-                           dtype=np.int64) for loop in gaps]
-    F = np.concatenate(fans)
-    used = np.unique(F)
-    renumber = np.full(len(index), -1, dtype=np.int64)
-    renumber[used] = np.arange(len(used))
-    return index[used], renumber[F]
+    used, F = compact(close_loops(F, gaps))
+    return index[used], F
 
 
 def _far_pair(V: np.ndarray, loop: np.ndarray) -> tuple[int, int]:

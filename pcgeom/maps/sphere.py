@@ -352,26 +352,13 @@ UNRESOLVED = ("the cloud's local mesh has genus 0 once its pinched points are sp
 not be resolved into a closed genus-0 mesh."""
 
 
-def _fill_small_holes(F: np.ndarray, limit: int = SMALL_HOLE) -> np.ndarray:
-    """``F`` with each boundary loop of at most ``limit`` points closed by a fan of
-    triangles, oriented as the mesh (a boundary edge ``a -> b`` of a triangle gets ``b -> a``
-    in the fan)."""
-    from ..mesh import boundary_loops
-
-    new = [F]
-    for loop in boundary_loops(F):
-        if len(loop) <= limit:
-            new.append(np.array([[loop[0], loop[k + 1], loop[k]]
-                                 for k in range(1, len(loop) - 1)], dtype=np.int64))
-    return np.concatenate(new) if len(new) > 1 else F
-
-
 def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
     """The closed genus-0 mesh a sphere map is made on, from the cloud's repaired local mesh
     (:mod:`pcgeom.maps.topology`: holes the sampling leaves filled, its topology measured
     with pinched vertices split): its main part with one fan per vertex
     (:func:`pcgeom.mesh.one_fan`: the smaller fans of a pinch go) and the gaps that leaves
-    filled (:func:`_fill_small_holes`); points it leaves out are not in ``index``.
+    filled (loops of at most :data:`SMALL_HOLE` points, :func:`pcgeom.mesh.close_loops`);
+    points it leaves out are not in ``index``.
 
     Returns the main part's point indices (K,), its faces (M, 3) in those (renumbered), and
     its topology (:func:`mesh_topology`).
@@ -383,7 +370,7 @@ def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
         says), an open one (:data:`OPEN_SURFACE`: loops of more than :data:`SMALL_HOLE`
         points remain), or a genus-0 mesh whose pinches leave handles (:data:`UNRESOLVED`).
     """
-    from ..mesh import one_fan
+    from ..mesh import boundary_loops, close_loops, compact, one_fan
     from .localmesh import _submesh
 
     measured = getattr(mesh, "topology", None)
@@ -397,11 +384,10 @@ def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
     # the small loops are filled. Every vertex is looked at, not only bowties on the rim: a
     # closed mesh's pinches are two closed fans (bowties only: uniform 5k clouds of the four
     # analytic shapes came out with genus 1-2; every vertex: genus 0, all four).
-    F = _fill_small_holes(one_fan(F, 5)[0])
-    used = np.unique(F)
-    renumber = np.full(len(index), -1, dtype=np.int64)
-    renumber[used] = np.arange(len(used))
-    index, F = index[used], renumber[F]
+    F = one_fan(F, 5)[0]
+    used, F = compact(close_loops(F, [loop for loop in boundary_loops(F)
+                                      if len(loop) <= SMALL_HOLE]))
+    index = index[used]
     topology = mesh_topology(F)
     if not topology["closed"]:
         raise InputError(OPEN_SURFACE.format(loops=topology["boundary_loops"]))
