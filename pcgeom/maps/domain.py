@@ -64,7 +64,7 @@ from .refine import refine
 from .riemann import ROTATIONS, riemann_onto, simply_connected
 
 __all__ = ["domain_map", "annulus_radius", "resolve_domain", "harmonic_onto", "injective_onto",
-           "landmarks_onto", "align_onto", "Alignment", "ROTATIONS", "MAX_PAIRINGS", "MIN_HOLE_RATIO"]
+           "landmarks_onto", "align_onto", "Alignment", "ROTATIONS", "CONFORMAL_FIT", "MAX_PAIRINGS", "MIN_HOLE_RATIO"]
 
 MAX_PAIRINGS = 720
 """At most this many pairings of mesh holes with domain holes are tried (6 holes: all); above,
@@ -75,6 +75,12 @@ MIN_HOLE_RATIO = 0.05
 aligned free map) gets a warning: the map must stretch the surface open around it. Measured:
 face_3holes_small_choi onto ``smile`` 1.11, 0.13 and 0.43 (its own eyes and mouth);
 peaks_7holes_choi onto ``smile`` 0.015 to 0.018 (small holes blown up to eyes and a mouth)."""
+
+CONFORMAL_FIT = 1e-3
+"""Landmarks onto a domain without holes: when the disk automorphism fitted to them
+(:mod:`pcgeom.maps.moebius`) brings every landmark set within this fraction of the square root
+of the domain's area of its targets (Hausdorff distance), the conformal map is kept as it is
+and the barrier map does not run."""
 
 _SHIFTS = 256
 """Circular shifts tried when a loop is laid on its ring."""
@@ -466,6 +472,11 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
     :func:`riemann_onto`'s record with ``injective`` (as :func:`injective_onto`'s).
     """
     U0, info = riemann_onto(X, mesh.faces, disk_uv, domain, landmarks=landmarks)
+    fit = max(hausdorff(U0[i], q) for i, q in landmarks)
+    if fit <= CONFORMAL_FIT * math.sqrt(domain.area):
+        # The targets are where a conformal map puts the landmarks: that map is the answer.
+        return U0, {**info, "bend": "none"}
+    info["bend"] = "barrier"
     main, V, F, loops = _main_loops(X, mesh, U0)
     D = U0[main]
     if not loops:

@@ -45,7 +45,7 @@ from ..errors import InputError
 from ..mesh import shoelace, signed_areas
 from .disk import _harmonic_measure_disk
 
-__all__ = ["DomainDisk", "domain_disk", "riemann_onto", "simply_connected", "snap_corners", "DOMAIN_MESH_POINTS", "ROTATIONS"]
+__all__ = ["DomainDisk", "CircleDisk", "domain_disk", "riemann_onto", "simply_connected", "snap_corners", "DOMAIN_MESH_POINTS", "ROTATIONS"]
 
 DOMAIN_MESH_POINTS = 20_000
 """Interior points of the domain's mesh (about twice as many triangles)."""
@@ -85,11 +85,13 @@ class DomainDisk:
         self._ring = shapely.LinearRing(D[rim])
         seg = np.linalg.norm(np.roll(D[rim], -1, axis=0) - D[rim], axis=1)
         self._cum = np.concatenate([[0.0], np.cumsum(seg)])
+        self._domain_side = None  # forward's locator, built when first asked
 
-    def _barycentric(self, Z: np.ndarray, T: np.ndarray) -> np.ndarray:
-        """Barycentric coordinates (k, c, 3) of the points ``Z`` (k, 2) in the disk images of
-        the triangles ``T`` (k, c); a degenerate triangle gets -inf."""
-        A, B, C = (self.D[self.F[T, q]] for q in range(3))  # (k, c, 2)
+    @staticmethod
+    def _barycentric(S: np.ndarray, F: np.ndarray, Z: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """Barycentric coordinates (k, c, 3) of the points ``Z`` (k, 2) in the triangles
+        ``F[T]`` (k, c) of the points ``S``; a degenerate triangle gets -inf."""
+        A, B, C = (S[F[T, q]] for q in range(3))  # (k, c, 2)
         z = Z[:, None, :]
         det = ((B[..., 0] - A[..., 0]) * (C[..., 1] - A[..., 1])
                - (B[..., 1] - A[..., 1]) * (C[..., 0] - A[..., 0]))
@@ -102,16 +104,30 @@ class DomainDisk:
         W = np.stack([det - wb - wc, wb, wc], axis=-1) / det[..., None]
         return np.where(ok[..., None], W, -np.inf)
 
-    def inverse(self, Z: np.ndarray, candidates: int = 12) -> np.ndarray:
-        """The domain points whose images are ``Z`` (k, 2): barycentric in the triangle
-        holding each (among those of the ``candidates`` nearest centroids), or, outside the
-        disk's polygon, at the nearest point of its rim."""
+    def _carry(self, Z: np.ndarray, source: str, candidates: int) -> np.ndarray:
+        """The points ``Z`` (k, 2) of the mesh's ``source`` side (``"D"``: the disk, ``"V"``:
+        the domain) carried to the other side: barycentric in the triangle holding each
+        (among those of the ``candidates`` nearest centroids), or, outside the polygon of
+        the rim, at the nearest point of the rim."""
         import shapely
 
         Z = np.asarray(Z, dtype=np.float64)
-        _, T = self._centroids.query(Z, min(candidates, len(self.F)))
+        if source == "D":
+            S, out_of, tree, ring, cum = self.D, self.V, self._centroids, self._ring, self._cum
+        else:
+            S, out_of = self.V, self.D
+            if self._domain_side is None:
+                from scipy.spatial import cKDTree
+
+                seg = np.linalg.norm(np.roll(self.V[self.rim], -1, axis=0) - self.V[self.rim],
+                                     axis=1)
+                self._domain_side = (cKDTree(self.V[self.F].mean(axis=1)),
+                                     shapely.LinearRing(self.V[self.rim]),
+                                     np.concatenate([[0.0], np.cumsum(seg)]))
+            tree, ring, cum = self._domain_side
+        _, T = tree.query(Z, min(candidates, len(self.F)))
         T = T.reshape(len(Z), -1)
-        W = self._barycentric(Z, T)  # (k, c, 3)
+        W = self._barycentric(S, self.F, Z, T)  # (k, c, 3)
         worst = W.min(axis=2)
         best = np.argmax(worst, axis=1)
         rows = np.arange(len(Z))
@@ -120,14 +136,45 @@ class DomainDisk:
         w = np.clip(W[rows, best], 0.0, 1.0)
         w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
         tri = self.F[T[rows, best]]  # (k, 3)
-        out[inside] = np.einsum("kq,kqd->kd", w[inside], self.V[tri[inside]])
+        out[inside] = np.einsum("kq,kqd->kd", w[inside], out_of[tri[inside]])
         if (~inside).any():
-            s = shapely.line_locate_point(self._ring, shapely.points(Z[~inside]))
-            k = np.clip(np.searchsorted(self._cum, s, side="right") - 1, 0, len(self.rim) - 1)
-            t = (s - self._cum[k]) / np.maximum(self._cum[k + 1] - self._cum[k], 1e-300)
+            s = shapely.line_locate_point(ring, shapely.points(Z[~inside]))
+            k = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(self.rim) - 1)
+            t = (s - cum[k]) / np.maximum(cum[k + 1] - cum[k], 1e-300)
             a, b = self.rim[k], self.rim[(k + 1) % len(self.rim)]
-            out[~inside] = (1.0 - t)[:, None] * self.V[a] + t[:, None] * self.V[b]
+            out[~inside] = (1.0 - t)[:, None] * out_of[a] + t[:, None] * out_of[b]
         return out
+
+    def inverse(self, Z: np.ndarray, candidates: int = 12) -> np.ndarray:
+        """The domain points whose images are ``Z`` (k, 2): barycentric in the triangle
+        holding each (among those of the ``candidates`` nearest centroids), or, outside the
+        disk's polygon, at the nearest point of its rim."""
+        return self._carry(Z, "D", candidates)
+
+    def forward(self, Q: np.ndarray, candidates: int = 12) -> np.ndarray:
+        """The images in the disk (k, 2) of the domain points ``Q`` (k, 2), as
+        :meth:`inverse` the other way."""
+        return self._carry(Q, "V", candidates)
+
+
+class CircleDisk:
+    """The disk's own Riemann map onto the unit disk, exact: ``u -> (u - center) / radius``
+    (what :class:`DomainDisk` approximates on a mesh of it)."""
+
+    corners = np.zeros(0, dtype=np.int64)
+
+    def __init__(self, center, radius: float, rim_points: int = 0) -> None:
+        self.center = np.asarray(center, dtype=np.float64)
+        self.radius = float(radius)
+        self.V = np.zeros((rim_points, 2))
+
+    def inverse(self, Z: np.ndarray) -> np.ndarray:
+        Z = np.asarray(Z, dtype=np.float64)
+        r = np.maximum(np.linalg.norm(Z, axis=1, keepdims=True), 1.0)  # onto the rim
+        return self.center + self.radius * Z / r
+
+    def forward(self, Q: np.ndarray) -> np.ndarray:
+        return (np.asarray(Q, dtype=np.float64) - self.center) / self.radius
 
 
 def _ring_points(ring: np.ndarray, h: float) -> np.ndarray:
@@ -343,7 +390,10 @@ def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: 
     """
     from scipy.spatial import cKDTree
 
-    dd = domain_disk(domain, seed=seed)
+    from ..domains import Disk
+
+    dd = CircleDisk(domain.center, domain.radius) if isinstance(domain, Disk) else \
+        domain_disk(domain, seed=seed)
     rng = np.random.default_rng(seed)
     if len(faces) > _SCORE_FACES:
         faces = faces[np.sort(rng.choice(len(faces), _SCORE_FACES, replace=False))]
@@ -388,32 +438,40 @@ def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: 
                 best = (total, spread, float(theta), mirror)
     _, spread, theta, mirror = best
     a = 0j
+    fitted = None
     if marks:
         # Landmarks fix more than a turn: every automorphism of the disk keeps the map
-        # conformal, z -> e^(i theta) (z - a) / (1 - conj(a) z), so the landmarks choose a
-        # too (|a| = tanh|b| < 1), from the best turn.
-        from scipy.optimize import minimize
+        # conformal, so the one whose landmark images lie nearest their targets is fitted by
+        # least squares (maps/moebius.py), from the best turn.
+        from .moebius import Moebius, fit_landmarks
 
-        def total(x: np.ndarray) -> float:
-            b = complex(x[1], x[2])
-            b = b * (math.tanh(abs(b)) / abs(b)) if abs(b) > 1e-12 else b
-            return score(float(x[0]), mirror, b)[0]
+        def fit(dd, start: Moebius, rounds: int) -> tuple[Moebius, dict]:
+            def to_disk(Q: np.ndarray) -> np.ndarray:
+                D = dd.forward(Q)
+                return D[:, 0] + 1j * D[:, 1]
 
-        found = minimize(total, np.array([theta, 0.0, 0.0]), method="Nelder-Mead",
-                         options={"xatol": 1e-4, "fatol": 1e-7, "maxfev": 300,
-                                  "initial_simplex": [[theta, 0, 0], [theta + 0.1, 0, 0],
-                                                      [theta, 0.1, 0], [theta, 0, 0.1]]})
-        if found.fun < best[0]:
-            theta, b = float(found.x[0]), complex(found.x[1], found.x[2])
-            a = b * (math.tanh(abs(b)) / abs(b)) if abs(b) > 1e-12 else b
-            spread = score(theta, mirror, a)[1]
+            def from_disk(z: np.ndarray) -> np.ndarray:
+                return dd.inverse(np.column_stack([z.real, z.imag]))
+
+            return fit_landmarks(X, z0, [(i, q) for i, q, _ in marks], to_disk, from_disk,
+                                 start=start, rounds=rounds)
+
+        fitted, fit_info = fit(dd, Moebius(theta, 0j, mirror), 10)
+        theta, a, mirror = fitted.theta, fitted.c, fitted.mirror
+        spread = score(theta, mirror, a)[1]
     # The cloud's rim points are those its disk map put on the circle.
     on_rim = np.abs(z0) > 1.0 - 1e-9
     rim_angles = np.angle(turn(z0[on_rim], theta, mirror, a))
     dd, moved = snap_corners(dd, rim_angles)
+    if fitted is not None and moved > 0:
+        # The corners moved the domain's map a little: fitted again on the moved one.
+        fitted, fit_info = fit(dd, fitted, 3)
+        theta, a, mirror = fitted.theta, fitted.c, fitted.mirror
     U = image(theta, mirror, np.arange(len(X)), a)
     info = {"rotation_deg": round(math.degrees(theta), 3), "mirror": mirror,
             "automorphism": [round(a.real, 6), round(a.imag, 6)],
             "domain_mesh_vertices": len(dd.V), "area_spread": round(spread, 4),
             "corners": len(dd.corners), "corner_move_deg": round(math.degrees(moved), 4)}
+    if fitted is not None:
+        info["moebius"] = fit_info
     return U, info
