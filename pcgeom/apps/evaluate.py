@@ -38,8 +38,9 @@ EVALUATION_BASELINES = ("lscm", "harmonic_disk")
 :data:`pcgeom.apps.baselines.BASELINES`."""
 
 SPHERE_EVALUATION_BASELINES = ("sphere_conformal",)
-"""The baselines :func:`evaluate_map` runs by default for a map onto the sphere: the
-spherical conformal map of the reference mesh itself
+"""The baselines :func:`evaluate_map` runs by default for a map onto the sphere: a
+spherical conformal map of the reference mesh itself (the stereographic method or
+conformalized mean curvature flow, whichever is better there)
 (:data:`pcgeom.apps.baselines.SPHERE_BASELINES`)."""
 
 _ALL_BASELINES = {**BASELINES, **SPHERE_BASELINES}
