@@ -1,8 +1,9 @@
 """Benchmark closed meshes from sphere maps (issue 37, item 4) beside MeshLab's screened Poisson.
 
 On the same bare clouds, in one run: ``reconstruct_on_sphere`` (pcgeom.apps.reconstruct,
-uniform and lambda-adaptive sizing, Phong lifting, as many target vertices as the cloud has
-points and as many as Poisson's depth-8 mesh has; the flat lifting at that count) and
+uniform and lambda-adaptive sizing, Phong lifting, the default target vertex count (three per
+point) and as many as Poisson's depth-8 (and depth-10) mesh has; the flat lifting at the
+depth-8 count) and
 pymeshlab's screened Poisson reconstruction at depth 8 and 10, with the normals from the file
 (the analytic ones; the head's mesh normals) or estimated by pymeshlab
 (``compute_normal_for_point_clouds``, 10 neighbours). Both are timed in this process, the
@@ -168,9 +169,14 @@ def _stats(d, diag: float) -> dict:
 def rows_of(case, maps, samples: int, work: Path) -> list[dict]:
     """Poisson's four meshes, then pcgeom's five on each sphere map of ``maps``."""
     theirs = [poisson(case, depth, estimate) for depth in (8, 10) for estimate in (False, True)]
-    # As many vertices as the cloud has points, and as many as Poisson's depth-8 mesh (the
-    # comparison at equal resolution); the flat lift at that count for contrast.
-    n, matched = len(case["X"]), len(theirs[0]["V"])
+    # The default (three per point, about Poisson's own default count), and as many as
+    # Poisson's depth-8 and depth-10 meshes have (the comparison at equal resolution); the
+    # flat lift at the depth-8 count for contrast.
+    from pcgeom.apps.reconstruct.sphere import default_vertices
+
+    n, matched = default_vertices(len(case["X"])), len(theirs[0]["V"])
+    deep = len(theirs[2]["V"])
+    extra = [("uniform", deep, "phong")] if abs(deep - matched) > 0.1 * matched else []
     rows, mine = [], []
     for source in maps:
         smap = sphere_map(case, source, work)
@@ -180,7 +186,7 @@ def rows_of(case, maps, samples: int, work: Path) -> list[dict]:
             continue
         for size, target, interpolation in (("uniform", n, "phong"), ("adaptive", n, "phong"),
                                             ("uniform", matched, "phong"),
-                                            ("adaptive", matched, "phong"),
+                                            ("adaptive", matched, "phong"), *extra,
                                             ("uniform", matched, "linear")):
             try:
                 mesh = ours(case, smap, size, target, interpolation)
@@ -189,8 +195,9 @@ def rows_of(case, maps, samples: int, work: Path) -> list[dict]:
                 rows.append(f"| {case['name']} | pcgeom, {source} map, {size}, {interpolation}, "
                             f"{target} target | FAILED: {exc} |")
                 continue
+            label = f"{target} target" + (" (default)" if target == n else "")
             mesh.update(map=source, map_s=smap["seconds"],
-                        method=f"pcgeom, {source} map, {size}, {interpolation}, {target} target")
+                        method=f"pcgeom, {source} map, {size}, {interpolation}, {label}")
             mine.append(mesh)
     for mesh in mine + theirs:
         row = score(mesh, case, samples)
@@ -246,8 +253,10 @@ def render(rows, args, argv, started: float) -> str:
                      f"{(time.time() - started) / 60:.0f} min in all",
                      f"load average at end {load or 'n/a'}"),
            f"- sphere maps: {maps}; pcgeom's mesh: `reconstruct_on_sphere` (Phong or flat "
-           "lifting), as many target vertices as the cloud has points, and as many as "
-           "Poisson's depth-8 mesh has (equal resolution); Poisson: pymeshlab "
+           "lifting), the default target vertex count (three per point of the cloud, about "
+           "Poisson's own at its default depth 8), and as many as Poisson's depth-8 mesh "
+           "has, and its depth-10 mesh where that differs by more than 10% (equal "
+           "resolution); Poisson: pymeshlab "
            "`generate_surface_reconstruction_screened_poisson` (preclean, 1 thread like "
            "pcgeom's), normals from the "
            "file or `compute_normal_for_point_clouds` (k 10). Seconds: the reconstruction "

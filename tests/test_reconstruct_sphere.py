@@ -74,6 +74,15 @@ def test_radially_projected_ellipsoid_lifts_to_a_closed_mesh_on_the_surface():
         4 / 3 * np.pi * AXES.prod(), rel=0.01)
 
 
+def test_default_target_is_three_vertices_per_point():
+    """Without a target the mesh gets three vertices per point (about screened Poisson's at
+    its default depth), at most MAX_DEFAULT_VERTICES."""
+    X, U = _ellipsoid(300)
+    V, F, report = reconstruct_on_sphere(X, U)
+    assert report["target_vertices"] == 900 and 810 <= len(V) <= 990
+    assert sphere_module.default_vertices(10**6) == sphere_module.MAX_DEFAULT_VERTICES
+
+
 def test_lift_locates_like_a_naive_search_and_interpolates_barycentrically():
     """Every query against every triangle: the one whose three cone coordinates are all >= 0;
     the lift is then sum(w X) with w the normalised cone coordinates."""

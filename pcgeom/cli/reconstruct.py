@@ -94,8 +94,9 @@ def configure(p) -> None:
                    help="on the sphere: how a vertex is lifted inside the cloud's triangle, "
                         "curved by Phong tessellation (default) or flat (linear)")
     add_denoise_option(p)
-    p.add_argument("--target-vertices", type=int_at_least(3), default=5000, metavar="N",
-                   help="about how many vertices the mesh gets (default: 5000)")
+    p.add_argument("--target-vertices", type=int_at_least(3), default=None, metavar="N",
+                   help="about how many vertices the mesh gets (default: 5000; --domain "
+                        "sphere: 3 per point of the cloud, at most 200000)")
     add_output_options(p, "MESH.ply|MESH.obj", "the mesh, as PLY or OBJ (by extension), with "
                        "the map as its texture coordinates", required=True)
     add_texture_option(p, "--out")
@@ -145,7 +146,7 @@ def run(args) -> int:
                          f"or more ({len(loops.dropped)} smaller ones dropped); the "
                          "reconstruction would be empty")
     V, F, Q, report = reconstruct_surface(lifted, result.uv, loops, size=args.size,
-                                          target_vertices=args.target_vertices,
+                                          target_vertices=args.target_vertices or 5000,
                                           lambda_inv=result.lambda_inv, return_uv=True)
     report.update(_write(args, out, V, F, Q))
     summary = _summary(args, points, result, out, report, n_loops_detected=len(loops.loops))
@@ -196,7 +197,7 @@ def _on_domain(args, points, result, domain, out) -> int:
                       f"{holes - kept} of them; to keep them, reconstruct without --domain "
                       "(the free boundary)", UserWarning, stacklevel=2)
     V, F, Q, report = reconstruct_on_domain(points, result.uv, domain, size=args.size,
-                                            target_vertices=args.target_vertices,
+                                            target_vertices=args.target_vertices or 5000,
                                             lambda_inv=result.lambda_inv, return_uv=True)
     report.update(_write(args, out, V, F, Q))
     summary = _summary(args, points, result, out, report)

@@ -39,7 +39,26 @@ from .gmsh_mesh import (_check_target_vertices, _first_size, _gmsh_triangles, _m
 from .report import mesh_report
 
 __all__ = ["reconstruct_on_sphere", "sphere_triangulation", "lift_sphere", "mesh_sphere",
-           "sphere_compression", "vertex_normals", "closed_checks", "INTERPOLATIONS"]
+           "sphere_compression", "vertex_normals", "closed_checks", "INTERPOLATIONS",
+           "VERTICES_PER_POINT", "MAX_DEFAULT_VERTICES", "default_vertices"]
+
+VERTICES_PER_POINT = 3
+"""The default target vertex count of a closed mesh, per point of the cloud: about what
+screened Poisson at its default depth 8 makes of a clean closed cloud (2.6-3.2 vertices per
+point on 5k and 20k clouds of the sphere, ellipsoid, bumpy sphere and peanut, 1.0-1.3 on
+closed_david_head_choi; depth 10: 2.9-3.3), so that the default mesh is compared at the
+resolution of Poisson's default. At one vertex per point, Poisson was the closer on the 5k
+analytic clouds (BENCHMARKS.md, bench_reconstruct_sphere)."""
+
+MAX_DEFAULT_VERTICES = 200_000
+"""The default target vertex count's ceiling (Poisson's depth 8 is a 256-cell grid: at most
+about 65k vertices on these shapes, whatever the cloud's size)."""
+
+
+def default_vertices(n_points: int) -> int:
+    """The default target vertex count of a closed mesh of ``n_points`` points:
+    :data:`VERTICES_PER_POINT` per point, at most :data:`MAX_DEFAULT_VERTICES`."""
+    return int(min(VERTICES_PER_POINT * int(n_points), MAX_DEFAULT_VERTICES))
 
 UNIT_TOLERANCE = 1e-6
 """Largest ``| |u| - 1 |`` accepted of a sphere map's rows."""
@@ -368,7 +387,7 @@ def closed_checks(V, F) -> dict:
 
 
 def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
-                          target_vertices: int = 5000, lambda_inv=None,
+                          target_vertices: int | None = None, lambda_inv=None,
                           interpolation: str = "phong", return_uv: bool = False):
     """Closed triangle mesh of the genus-0 surface sampled by ``X``, remeshed on the sphere
     its map ``U`` is onto (module docstring).
@@ -385,8 +404,9 @@ def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
         ``U``.
     size : {"uniform", "adaptive"}
         ``"adaptive"``: element size on the sphere proportional to ``lambda_inv ** -0.5``.
-    target_vertices : int
-        About how many vertices the mesh gets.
+    target_vertices : int, optional
+        About how many vertices the mesh gets; default :func:`default_vertices` of the
+        cloud's points (three per point, at most 200000).
     lambda_inv : (N,) array_like, optional
         The map's compression, surface length per sphere length (for ``"adaptive"``);
         default :func:`sphere_compression` of the triangulation.
@@ -428,6 +448,8 @@ def reconstruct_on_sphere(X, U, *, faces=None, size: str = "uniform",
                          f"got {interpolation!r}")
     P = validate_points(X, name="points")
     U = _sphere_map(U, len(P))
+    if target_vertices is None:
+        target_vertices = default_vertices(len(P))
     _check_target_vertices(target_vertices)
     T, source = sphere_triangulation(U, faces)
     relative = weights = None
