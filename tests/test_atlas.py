@@ -241,20 +241,44 @@ def test_more_roots_never_longer():
     assert euler_characteristic(Fc) == 1 and len(boundary_loops(Fc)) == 1
 
 
-def test_an_overlapping_atlas_is_an_error(monkeypatch, torus):
-    """A chart whose boundary crosses itself cannot be right: a one-line error, no result."""
+def test_an_overlapping_chart_is_split(monkeypatch, torus):
+    """A chart whose boundary crosses itself is split into charts, each one-to-one, packed
+    apart by xatlas; when nothing maps it (Tutte's embedding held to fail too), a one-line
+    error, no result."""
     import pcgeom.maps.atlas as atlas
+    import pcgeom.maps.charts as charts
 
     real = atlas.chart_map
+    calls = []
 
     def crossed(V, F):
         U, info = real(V, F)
-        loop = np.asarray(boundary_loops(F)[0])
-        U = U.copy()
-        U[loop[0]] = U[loop[len(loop) // 2]] + (U[loop[len(loop) // 2]] - U.mean(axis=0))
+        calls.append(len(F))
+        if len(calls) == 1:  # the first chart, the whole torus: its boundary made to cross
+            loop = np.asarray(boundary_loops(F)[0])
+            U = U.copy()
+            U[loop[0]] = U[loop[len(loop) // 2]] + (U[loop[len(loop) // 2]] - U.mean(axis=0))
         return U, info
 
     monkeypatch.setattr(atlas, "chart_map", crossed)
+    r = parametrize(torus.points, cut="auto", progress=False)
+    rec = r.history[-1]
+    assert rec["charts"] >= 2 and rec["seams"]["splits"] >= 1 and rec["packer"] == "xatlas"
+    assert rec["flips"]["count"] == 0 and rec["overlap_area"] < 1e-9
+    U = r.corner_uv.reshape(-1, 2)
+    F = np.arange(len(U)).reshape(-1, 3)
+    assert (signed_areas(U, F) > 0).all() and overlap_area(U, F) < 1e-9
+    assert (U >= 0.02 - 1e-12).all() and (U <= 0.98 + 1e-12).all()
+    assert set(np.unique(r.chart)) == set(range(rec["charts"]))
+
+    def never(V, chart):
+        return charts.Chart(chart.faces, chart.F, chart.origin, chart.U,
+                            dict(chart.info, ok=False))
+
+    calls.clear()
+    monkeypatch.setattr(charts, "_tutte", never)
+    monkeypatch.setattr(charts, "DEPTH", 0)
+    monkeypatch.setattr(charts.fit_charts, "__kwdefaults__", {"roots": 1, "slits": 6, "depth": 0})
     with pytest.raises(InputError, match=r"the atlas of this cloud is not one-to-one \(0 "
-                       r"triangles turned over, [0-9.]+% of its area covered twice"):
+                       r"triangles turned over, [0-9.]+% of its area covered twice\) when"):
         parametrize(torus.points, cut="auto", progress=False)

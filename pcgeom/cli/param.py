@@ -98,9 +98,9 @@ def configure(p: argparse.ArgumentParser) -> None:
                         "(default: none)")
     p.add_argument("--max-stretch", default=MAX_STRETCH, metavar="S",
                    help="with --cut auto: the bound (a number above 1) on a chart's "
-                        "scale-factor spread (95th over 5th percentile); validated and "
-                        "recorded, but the extra seams it would add are not built yet: one "
-                        f"chart (default: {MAX_STRETCH:g})")
+                        "scale-factor spread (95th over 5th percentile): a chart over it "
+                        "gets seams from its rim to its most shrunk point, then is split "
+                        f"into charts packed by xatlas (default: {MAX_STRETCH:g})")
     p.add_argument("--landmarks", metavar="FILE.json",
                    help="landmark pairs: points of the input (indices or 3D points) and their "
                         "targets in the domain (points or polylines); needs a domain")

@@ -10,20 +10,23 @@ and packed into the unit square (a texture atlas).
    points; an open mesh with handles or several boundary loops, the tree-cotree paths from
    its boundary to its boundary (``2g + b - 1`` of them). An open mesh with one boundary loop
    and no handle is a disk already: no seam.
-3. **The chart**: the mesh cut open along the seams (seam vertices duplicated), its free LSCM
-   map (``igl.lscm``, two boundary vertices far apart pinned: the free-boundary minimizer up to
-   a similarity), mirrored if it came out clockwise; where it turns triangles over, the
-   untangling step of the barrier map (:func:`pcgeom.maps.injective.untangle`, the pins
-   held) until none is.
+3. **The charts** (:mod:`pcgeom.maps.charts`): the cut mesh's free LSCM map (``igl.lscm``,
+   two boundary vertices far apart pinned), mirrored if it came out clockwise, untangled
+   (:func:`pcgeom.maps.injective.untangle`) where it turns triangles over. A chart whose
+   scale-factor spread (95th over 5th percentile) passes ``max_stretch`` gets slits (seams
+   from its boundary to its most shrunk or stretched point); one that overlaps itself is
+   split in two, each part opened into a disk and mapped again; Tutte's embedding onto a
+   circle is the last resort of a part that still overlaps.
 4. **Packing.** One chart: turned to its principal axes, scaled uniformly into
-   ``[gutter, 1 - gutter]^2`` and centred. This is exact for one chart; ``xatlas``'s packer
-   (for several charts) rasterises charts at a texel size and returns float32 uv, and its
-   ``add_uv_mesh`` re-splits charts by its own rules, which one chart does not need.
-5. **Checks.** Flips: triangles of the chart with signed area ``<= 0``. Overlap: with no
-   flip, the chart's map is one-to-one exactly when its boundary polygon is simple (the
+   ``[gutter, 1 - gutter]^2`` and centred (:func:`pack_one`). Several: each at a median scale
+   factor of 1, placed by ``xatlas``'s packer (one similarity per chart read from its output,
+   applied to the float64 map), then scaled into the same square.
+5. **Checks.** Flips: triangles of a chart with signed area ``<= 0``. Overlap: with no
+   flip, a chart's map is one-to-one exactly when its boundary polygon is simple (the
    degree of the map is then 1 inside it), tested with shapely (:func:`boundary_simple`);
    :func:`overlap_area` measures the overlap of the triangles directly (their areas' sum
-   less the area of their union).
+   less the area of their union); between charts, the outlines' intersections
+   (:func:`pcgeom.maps.charts.charts_overlap`).
 
 Every point of the cloud gets the atlas position of one of its copies (its chart: the one
 copy's), the corners of every triangle their own uv (``corner_uv``: a seam vertex has one
@@ -38,7 +41,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh import boundary_loops, euler_characteristic, signed_areas
-from .seams import cut_graph, cut_open
+from .charts import charts_overlap, fit_charts, pack_charts
 
 __all__ = ["OVERLAPS", "atlas_map", "chart_map", "pack_one", "boundary_simple", "overlap_area",
            "CUTS", "GUTTER", "MAX_STRETCH", "check_cut"]
@@ -51,7 +54,7 @@ GUTTER = 0.02
 
 MAX_STRETCH = 10.0
 """The default bound on a chart's scale-factor spread (95th over 5th percentile) for
-``--max-stretch``. Validated; the extra seams it would add are not built yet (one chart)."""
+``--max-stretch``: a chart over it gets slits, then is split (:mod:`pcgeom.maps.charts`)."""
 
 SEAM_ROOTS = 1
 """Roots the tree-cotree cut graph tries (:func:`pcgeom.maps.seams.cut_graph`); the shortest
@@ -105,6 +108,17 @@ def _mesh_of(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray]:
     gaps = loops[keep:] + [loop for loop in loops[:keep] if len(loop) <= GAP]
     used, F = compact(close_loops(F, gaps))
     return index[used], F
+
+
+def _seam_length(V: np.ndarray, F: np.ndarray, Fc: np.ndarray, origin: np.ndarray) -> float:
+    """The length of the seams: half the charts' boundary length less the mesh's own (each
+    seam edge is on the boundary of the cut mesh twice)."""
+    def rim(P, faces):
+        loops = boundary_loops(faces)
+        return sum(float(np.linalg.norm(P[np.asarray(lp)] - P[np.roll(np.asarray(lp), -1)],
+                                        axis=1).sum()) for lp in loops)
+
+    return 0.5 * (rim(V[origin], Fc) - rim(V, F))
 
 
 def _far_pair(V: np.ndarray, loop: np.ndarray) -> tuple[int, int]:
@@ -193,9 +207,8 @@ def _vertex_scale(V: np.ndarray, U: np.ndarray, F: np.ndarray, n: int) -> np.nda
 
 
 OVERLAPS = ("--cut auto: the atlas of this cloud is not one-to-one ({flips} triangles turned over, "
-            "{share:.2f}% of its area covered twice: the free boundary of its chart crosses "
-            "itself); the extra seams and charts that would separate it are not built yet: map "
-            "it without --cut")
+            "{share:.2f}% of its area covered twice) when every chart's splits are spent: map it "
+            "without --cut")
 """The one-line error of an atlas that folds or overlaps (seen on open clouds whose repaired
 local mesh keeps false holes and handles, each of which gets a seam)."""
 
@@ -237,18 +250,33 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
                                      closed=True)
     index, F = _mesh_of(Xn, mesh)
     V = Xn[index]
-    topo = mesh_topology(F)
-    if not topo["closed"] and topo["genus"] == 0 and topo["boundary_loops"] == 1:
-        Fc, origin = F, np.arange(len(V))  # a disk already
-        seams = {"genus": 0, "loops": 0, "length": 0.0}
-    else:
-        E, cut, seams = cut_graph(V, F, roots=SEAM_ROOTS)
-        Fc, origin = cut_open(F, E, cut, len(V))
-    log(f"seams: genus {seams['genus']}, {seams['loops']} loops, length "
-        f"{seams['length']:.3g}", enabled=progress)
+    charts, tally = fit_charts(V, F, max_stretch, roots=SEAM_ROOTS)
+    bad = [c for c in charts if not c.info["ok"]]
+    if bad:
+        # An atlas that overlaps or folds cannot be right: an error, never a result.
+        share = max(c.info["overlap_area"] for c in bad)
+        raise InputError(OVERLAPS.format(flips=sum(c.info["flips"] for c in bad),
+                                         share=100 * share))
+    Us, packer = pack_charts(V, charts, gutter)
+    between = charts_overlap(Us, charts) if len(charts) > 1 else 0.0
+    if between > 1e-9:
+        raise InputError(OVERLAPS.format(flips=0, share=100 * between))
+    # The charts side by side as one cut mesh, its triangles in the mesh's order.
+    offsets = np.cumsum([0] + [len(c.origin) for c in charts])
+    Fc = np.zeros((len(F), 3), dtype=np.int64)
+    for c, o in zip(charts, offsets):
+        Fc[c.faces] = c.F + o
+    origin = np.concatenate([c.origin for c in charts])
+    label = np.concatenate([np.full(len(c.origin), k) for k, c in enumerate(charts)])
+    U = np.concatenate(Us)
     Vc = V[origin]
-    U, info = chart_map(Vc, Fc)
-    U = pack_one(U, gutter)
+    seam = _seam_length(V, F, Fc, origin)
+    topo = mesh_topology(F)
+    seams = {"genus": int(topo["genus"]), "loops": tally["loops"], "length": seam,
+             "boundary_loops": int(topo["boundary_loops"]), "slits": tally["slits"],
+             "splits": tally["splits"], "tutte": tally["tutte"]}
+    log(f"atlas: {len(charts)} chart(s), seams of length {seam:.3g}, packed by {packer}",
+        enabled=progress)
     a3 = 0.5 * np.linalg.norm(np.cross(Vc[Fc[:, 1]] - Vc[Fc[:, 0]],
                                        Vc[Fc[:, 2]] - Vc[Fc[:, 0]]), axis=1)
     a2 = np.abs(signed_areas(U, Fc))
@@ -262,24 +290,25 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
     scale_c = _vertex_scale(Vc, U, Fc, len(Vc))
     lam = np.full(len(Xn), np.nan)
     lam[index] = scale_c[first]
+    chart = np.zeros(len(Xn), dtype=np.int64)
+    chart[index] = label[first]
     known = np.zeros(len(Xn), dtype=bool)
     known[index] = True
-    if not known.all():  # points off the mesh: their nearest meshed point's (one chart)
+    if not known.all():  # points off the mesh: their nearest meshed point's
         near = np.flatnonzero(known)[cKDTree(Xn[known]).query(Xn[~known])[1]]
-        uv[~known], lam[~known] = uv[near], lam[near]
-    chart = np.zeros(len(Xn), dtype=np.int64)
-    simple = boundary_simple(U, Fc)
-    covered_twice = 0.0 if simple else overlap_area(U, Fc)
-    if info["flips"] or not simple:
-        # An atlas that overlaps or folds cannot be right: an error, never a result.
-        raise InputError(OVERLAPS.format(flips=info["flips"], share=100 * covered_twice))
-    record.update(kind="localmesh", onto="free", cut="auto", seams=seams, charts=1,
+        uv[~known], lam[~known], chart[~known] = uv[near], lam[near], chart[near]
+    flips = int(sum(c.info["flips"] for c in charts))
+    record.update(kind="localmesh", onto="free", cut="auto", seams=seams, charts=len(charts),
                   cut_euler=euler_characteristic(Fc), cut_loops=len(boundary_loops(Fc)),
-                  lscm_flips=info["lscm_flips"], untangled=info["untangled"],
-                  flips={"count": info["flips"], "faces": int(len(Fc)), "rim": 0, "hole": 0,
-                         "inside": info["flips"]},
-                  overlap=not simple, overlap_area=covered_twice, stretch=float(p95 / p5),
-                  seam_length=float(seams["length"] / np.sqrt(a3.sum())),
+                  lscm_flips=int(sum(c.info["lscm_flips"] for c in charts)),
+                  untangled=any(c.info["untangled"] for c in charts),
+                  flips={"count": flips, "faces": int(len(Fc)), "rim": 0, "hole": 0,
+                         "inside": flips},
+                  overlap=between > 0,
+                  overlap_area=max([between] + [c.info["overlap_area"] for c in charts]),
+                  stretch=float(p95 / p5),
+                  chart_stretch=float(max(c.info["spread"] for c in charts)),
+                  seam_length=float(seam / np.sqrt(a3.sum())), packer=packer,
                   atlas_use=float(a2.sum()), max_stretch=float(max_stretch),
                   gutter=float(gutter), seconds=time.perf_counter() - t0)
     return {"uv": uv, "lambda_inv": lam, "chart": chart, "faces": index[F],

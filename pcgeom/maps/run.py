@@ -191,8 +191,9 @@ def parametrize(
         packed into ``[0, 1]^2`` (:func:`pcgeom.maps.atlas.atlas_map`); the result has
         ``chart`` and ``corner_uv``.
     max_stretch : float
-        The bound (> 1) on a chart's scale-factor spread for ``cut="auto"``; validated and
-        recorded, the extra seams it would add are not built yet (one chart).
+        The bound (> 1) on a chart's scale-factor spread (95th over 5th percentile) for
+        ``cut="auto"``: a chart over it gets slits and is split into charts
+        (:mod:`pcgeom.maps.charts`); a cloud one chart holds within it gets no seam.
 
     Returns
     -------

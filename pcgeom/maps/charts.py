@@ -1,0 +1,420 @@
+"""The charts of a cut map: pieces of the mesh opened into disks, each mapped without a fold
+or an overlap within the scale-factor bound, packed into the unit square.
+
+A **piece** is a connected part of the mesh cut open (:class:`Piece`: its triangles' rows in
+the mesh, its own triangles and the mesh vertex of each of its vertices). :func:`fit_charts`
+takes the whole mesh as one piece and, recursively:
+
+1. **Opens it into a disk** when it is not one (:func:`pcgeom.maps.seams.cut_graph`: the
+   tree-cotree seams of a closed piece, the paths from boundary to boundary of an open one).
+2. **Maps it** (:func:`pcgeom.maps.atlas.chart_map`: LSCM, untangled where it flips) and
+   measures its **spread**, the 95th over the 5th percentile of the per-triangle scale factor
+   ``sqrt(uv area / 3D area)``.
+3. A chart with no flip, a simple boundary and a spread within the bound (``max_stretch``) is
+   kept. One over the bound gets a **slit** (up to :data:`SLITS` per chart): a seam along the
+   shortest path from its boundary to the vertex whose scale factor is farthest from the
+   median (in log: the tip of a finger the conformal map shrinks), then is mapped again (the
+   cone-and-cut idea of OptCuts and Boundary First Flattening, with the cut ending at the
+   worst point). A chart that folds or overlaps itself, or whose slits are spent, is **split**
+   in two (up to :data:`DEPTH` times): triangles nearer one of two far vertices (distance
+   along the mesh) than the other, each part's connected pieces mapped from step 1.
+
+:func:`pack_charts` places the charts in ``[0, 1]^2``: each scaled to a median scale factor
+of 1 (even texel density), then ``xatlas``'s packer (bitmaps of the charts, tried at many
+places and turns: tight and free of overlap by construction, with a gutter of
+:data:`PADDING` texels); its float32 output is only read back as one similarity per chart,
+fitted to the chart's float64 map and applied to it, so each chart keeps its exact shape. One
+chart is placed by :func:`pcgeom.maps.atlas.pack_one` (no packer needed).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components, dijkstra
+
+from ..errors import InputError
+from ..mesh import boundary_loops, euler_characteristic, signed_areas, unique_edges
+from .seams import cut_graph, cut_open
+
+__all__ = ["Piece", "Chart", "fit_charts", "pack_charts", "spread", "charts_overlap",
+           "SLITS", "DEPTH", "TOUCH", "PADDING", "RESOLUTION"]
+
+SLITS = 6
+"""Slits a chart over the bound gets before it is split instead."""
+
+DEPTH = 6
+"""Times a chart is split in two at most (up to 64 charts)."""
+
+PADDING = 4
+"""xatlas's gutter between charts, in texels of a :data:`RESOLUTION`-texel atlas."""
+
+TOUCH = 1e-9
+"""A chart whose triangles cover at most this share of its area twice (the two sides of a
+seam crossing by rounding) is one-to-one; more is an overlap."""
+
+RESOLUTION = 1024
+"""The side, in texels, of the atlas xatlas packs."""
+
+
+@dataclasses.dataclass
+class Piece:
+    """A connected part of the mesh, cut open."""
+
+    faces: np.ndarray
+    """(m,) int64 rows of the mesh's triangles."""
+    F: np.ndarray
+    """(m, 3) int64 its triangles in its own vertices."""
+    origin: np.ndarray
+    """(k,) int64 the mesh vertex of each of its vertices."""
+
+
+@dataclasses.dataclass
+class Chart(Piece):
+    """A piece mapped: ``U`` (k, 2), and ``info`` (``flips``, ``simple``, ``spread``,
+    ``slits``, ``lscm_flips``, ``untangled``)."""
+
+    U: np.ndarray = None
+    info: dict = None
+
+
+def _areas3(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    return 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]),
+                                axis=1)
+
+
+def spread(V: np.ndarray, U: np.ndarray, F: np.ndarray) -> float:
+    """The 95th over the 5th percentile of the per-triangle scale factor
+    ``sqrt(|uv area| / 3D area)`` of the map ``U`` of ``(V, F)``."""
+    a3 = _areas3(V, F)
+    good = a3 > 0
+    r = np.sqrt(np.abs(signed_areas(U, F))[good] / a3[good])
+    p5, p95 = np.percentile(r, [5, 95])
+    return float(p95 / max(p5, 1e-300))
+
+
+def _is_disk(F: np.ndarray) -> bool:
+    return euler_characteristic(F) == 1 and len(boundary_loops(F)) == 1
+
+
+def _parts(piece: Piece, cut: np.ndarray | None = None, E: np.ndarray | None = None
+           ) -> list[Piece]:
+    """``piece`` cut open along ``E[cut]`` (none: only its pinched vertices split), as its
+    connected parts."""
+    n = len(piece.origin)
+    if E is None:
+        E = unique_edges(piece.F)
+        cut = np.zeros(len(E), dtype=bool)
+    Fc, o = cut_open(piece.F, E, cut, n)
+    k = int(Fc.max()) + 1
+    rows = np.r_[Fc[:, 0], Fc[:, 1]]
+    cols = np.r_[Fc[:, 1], Fc[:, 2]]
+    graph = sp.coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(k, k))
+    count, label = connected_components(graph, directed=False)
+    face_label = label[Fc[:, 0]]
+    out = []
+    for c in range(count):
+        rows_c = np.flatnonzero(face_label == c)
+        used = np.unique(Fc[rows_c])
+        renumber = np.full(k, -1, dtype=np.int64)
+        renumber[used] = np.arange(len(used))
+        out.append(Piece(piece.faces[rows_c], renumber[Fc[rows_c]], piece.origin[o[used]]))
+    return out
+
+
+def _disk(V: np.ndarray, piece: Piece, roots: int, tally: dict) -> Piece:
+    """``piece`` opened into a disk by :func:`pcgeom.maps.seams.cut_graph` (itself if it is
+    one); its loops or paths counted in ``tally["loops"]``."""
+    if _is_disk(piece.F):
+        return piece
+    E, cut, info = cut_graph(V[piece.origin], piece.F, roots=roots)
+    tally["loops"] += int(info["loops"])
+    parts = _parts(piece, cut, E)
+    if len(parts) != 1 or not _is_disk(parts[0].F):
+        raise InputError("--cut auto: the seams do not open this cloud's local mesh into "
+                         f"disks ({len(parts)} part(s), Euler characteristic "
+                         f"{euler_characteristic(parts[0].F)})")
+    return parts[0]
+
+
+def _graph(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
+    E = unique_edges(F)
+    w = np.maximum(np.linalg.norm(P[E[:, 0]] - P[E[:, 1]], axis=1), 1e-12)
+    n = len(P)
+    G = sp.coo_matrix((np.r_[w, w], (np.r_[E[:, 0], E[:, 1]], np.r_[E[:, 1], E[:, 0]])),
+                      shape=(n, n)).tocsr()
+    return E, G
+
+
+def _vertex_log_scale(P, U, F) -> np.ndarray:
+    a3 = np.bincount(F.ravel(), np.repeat(_areas3(P, F), 3), minlength=len(P))
+    a2 = np.bincount(F.ravel(), np.repeat(np.abs(signed_areas(U, F)), 3), minlength=len(P))
+    return 0.5 * np.log(np.maximum(a2, 1e-300) / np.maximum(a3, 1e-300))
+
+
+def _slit(V: np.ndarray, chart: Chart) -> Piece | None:
+    """``chart`` with a seam along the shortest path from its boundary to its inner vertex
+    whose log scale factor is farthest from the median; None when every vertex is on the
+    boundary."""
+    P, F = V[chart.origin], chart.F
+    on_rim = np.zeros(len(P), dtype=bool)
+    on_rim[np.concatenate([np.asarray(loop) for loop in boundary_loops(F)])] = True
+    if on_rim.all():
+        return None
+    s = _vertex_log_scale(P, chart.U, F)
+    far = np.abs(s - np.median(s))
+    far[on_rim] = -1.0
+    target = int(np.argmax(far))
+    E, G = _graph(P, F)
+    _, pred, _ = dijkstra(G, indices=np.flatnonzero(on_rim), min_only=True,
+                          return_predecessors=True)
+    n = len(P)
+    keys = E[:, 0] * n + E[:, 1]
+    cut = np.zeros(len(E), dtype=bool)
+    v = target
+    while pred[v] >= 0:
+        a, b = min(v, int(pred[v])), max(v, int(pred[v]))
+        cut[np.searchsorted(keys, a * n + b)] = True
+        v = int(pred[v])
+    parts = _parts(chart, cut, E)
+    return parts[0] if len(parts) == 1 and _is_disk(parts[0].F) else None
+
+
+def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
+    """``piece`` in two: the triangles nearer (along the mesh) one of two far vertices than
+    the other; the connected parts of each."""
+    P, F = V[piece.origin], piece.F
+    E, G = _graph(P, F)
+    a = int(np.argmax(dijkstra(G, indices=0)))
+    da = dijkstra(G, indices=a)
+    b = int(np.argmax(da))
+    db = dijkstra(G, indices=b)
+    side = (da[F].mean(axis=1) < db[F].mean(axis=1))
+    if side.all() or not side.any():
+        side = np.arange(len(F)) < len(F) // 2
+    n = len(P)
+    # Cut the edges whose two triangles lie on different sides.
+    from ..mesh import half_edges
+
+    he = half_edges(F)
+    m = len(F)
+    k = np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
+    eid = np.searchsorted(E[:, 0] * n + E[:, 1], k)
+    lab = side[np.arange(3 * m) % m].astype(np.int64)
+    s0 = np.bincount(eid, lab, minlength=len(E))
+    cnt = np.bincount(eid, minlength=len(E))
+    cut = (s0 > 0) & (s0 < cnt)
+    return _parts(piece, cut, E)
+
+
+def _map(V: np.ndarray, piece: Piece, slits: int) -> Chart:
+    from .atlas import boundary_simple, chart_map, overlap_area
+
+    U, info = chart_map(V[piece.origin], piece.F)
+    simple = bool(boundary_simple(U, piece.F))
+    # A seam whose two sides the map keeps together (a slit across a smooth part, a path to
+    # a small hole) touches itself: its sides may cross by rounding, no more.
+    covered = 0.0 if simple else overlap_area(U, piece.F)
+    info = dict(info, simple=simple, overlap_area=covered, slits=slits,
+                spread=spread(V[piece.origin], U, piece.F))
+    info["ok"] = info["flips"] == 0 and covered < TOUCH
+    return Chart(piece.faces, piece.F, piece.origin, U, info)
+
+
+def _tutte(V: np.ndarray, chart: Chart) -> Chart:
+    """``chart`` mapped by Tutte's embedding, its boundary on a circle by arc length
+    (:func:`pcgeom.maps.injective.tutte.tutte_fill`, mean-value weights: one-to-one, the
+    last resort of a chart that still folds or overlaps when its splits are spent)."""
+    from .injective.tutte import tutte_fill
+
+    P, F = V[chart.origin], chart.F
+    loop = np.asarray(boundary_loops(F)[0])
+    step = np.linalg.norm(P[np.roll(loop, -1)] - P[loop], axis=1)
+    t = 2 * np.pi * np.r_[0.0, np.cumsum(step)[:-1]] / max(float(step.sum()), 1e-300)
+    r = float(step.sum()) / (2 * np.pi)
+    for sign in (1.0, -1.0):
+        U = tutte_fill(P, F, loop, r * np.column_stack([np.cos(t), sign * np.sin(t)]))
+        if signed_areas(U, F).sum() > 0:
+            break
+    flips = int((signed_areas(U, F) <= 0).sum())
+    info = dict(chart.info, flips=flips, simple=True, overlap_area=0.0, tutte=True,
+                spread=spread(P, U, F), ok=flips == 0)
+    return Chart(chart.faces, F, chart.origin, U, info)
+
+
+def fit_charts(V: np.ndarray, F: np.ndarray, max_stretch: float, *, roots: int = 1,
+               slits: int = SLITS, depth: int = DEPTH) -> tuple[list[Chart], dict]:
+    """The charts of the mesh ``(V, F)`` (steps 1-3 of the module), and a tally: ``loops``
+    (the tree-cotree loops or paths that opened pieces into disks), ``slits``, ``splits``,
+    ``tutte`` (charts mapped by :func:`_tutte`).
+
+    Each chart's ``info["ok"]`` says it has no flip and a simple boundary; its spread may stay
+    over ``max_stretch`` when its slits and splits are spent (``info["spread"]``).
+    """
+    tally = {"loops": 0, "slits": 0, "splits": 0, "tutte": 0}
+    whole = Piece(np.arange(len(F)), np.asarray(F, dtype=np.int64),
+                  np.arange(len(V), dtype=np.int64))
+    out: list[Chart] = []
+    work = [(p, 0, 0) for p in _parts(whole)]
+    while work:
+        piece, level, cuts = work.pop()
+        chart = _map(V, _disk(V, piece, roots, tally), cuts)
+        ok = chart.info["ok"]
+        if ok and chart.info["spread"] <= max_stretch:
+            out.append(chart)
+            continue
+        if ok and cuts < slits:
+            slit = _slit(V, chart)
+            if slit is not None:
+                work.append((slit, level, cuts + 1))
+                tally["slits"] += 1
+                continue
+        if level < depth and len(piece.F) > 1:
+            work.extend((p, level + 1, 0) for p in _split(V, piece))
+            tally["splits"] += 1
+            continue
+        if not ok:
+            chart = _tutte(V, chart)
+            tally["tutte"] += 1
+        out.append(chart)
+    return out, tally
+
+
+def _similarity(z: np.ndarray, w: np.ndarray) -> tuple[complex, complex, float]:
+    """The map ``w ~ a z + b`` (complex: a turn and a scale, then a shift) nearest ``w`` in
+    least squares, and its largest residual."""
+    zc, wc = z - z.mean(), w - w.mean()
+    a = complex((wc * np.conj(zc)).sum() / max(float((np.abs(zc) ** 2).sum()), 1e-300))
+    b = complex(w.mean() - a * z.mean())
+    return a, b, float(np.abs(a * z + b - w).max())
+
+
+def _hull(U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The convex hull of ``U`` as a fan of triangles: its corners (rows of ``U``) and the
+    fan in them."""
+    from scipy.spatial import ConvexHull
+
+    corners = ConvexHull(U).vertices  # counter-clockwise
+    k = len(corners)
+    return corners, np.column_stack([np.zeros(k - 2, dtype=np.int64), np.arange(1, k - 1),
+                                     np.arange(2, k)])
+
+
+def _xatlas(charts: list[np.ndarray], Fs: list[np.ndarray]) -> list[np.ndarray] | None:
+    """The charts moved by xatlas's packer: one similarity each, fitted to its float32
+    output. A chart xatlas does not move by a similarity (it re-flattens charts whose
+    triangles touch, as the two sides of a slit do) is given to it again as its convex hull.
+    None when that fails too, or the charts take several atlases."""
+    import xatlas
+
+    from ..progress import log
+
+    rows_of = [np.arange(len(U)) for U in charts]
+    proxies = [(U, F) for U, F in zip(charts, Fs)]
+    for _ in range(2):
+        offsets = np.cumsum([0] + [len(P) for P, _ in proxies])
+        atlas = xatlas.Atlas()
+        atlas.add_uv_mesh(np.concatenate([P for P, _ in proxies]).astype(np.float32),
+                          np.concatenate([F + o for (_, F), o in zip(proxies, offsets)]
+                                         ).astype(np.uint32))
+        pack = xatlas.PackOptions()
+        pack.padding = PADDING
+        pack.resolution = RESOLUTION
+        pack.bruteForce = False  # brute force: 0.6 s -> 100 s on three charts of 2k triangles
+        # Its turns by 90 degrees swap u and v: a mirror, which would turn every triangle over.
+        pack.rotate_charts = False
+        atlas.generate(pack_options=pack)
+        if atlas.atlas_count != 1 or atlas.chart_count != len(charts):
+            log(f"xatlas: {atlas.atlas_count} atlases, {atlas.chart_count} charts for "
+                f"{len(charts)}: packed on shelves instead")
+            return None
+        vmap, _, out = atlas[0]
+        px = out.astype(np.float64) * np.array([atlas.width, atlas.height])
+        wz = px[:, 0] + 1j * px[:, 1]
+        moved, failed = [], []
+        for k, U in enumerate(charts):
+            rows = np.flatnonzero((vmap >= offsets[k]) & (vmap < offsets[k + 1]))
+            z = U[rows_of[k][vmap[rows] - offsets[k]]]
+            z = z[:, 0] + 1j * z[:, 1]
+            a, b, residual = _similarity(z, wz[rows])
+            # Within a quarter of the gutter of where xatlas put it: still apart from the
+            # others (float32 output: 0.1-0.4 texels seen).
+            if residual > PADDING / 4:
+                failed.append(k)
+            full = a * (U[:, 0] + 1j * U[:, 1]) + b
+            moved.append(np.column_stack([full.real, full.imag]))
+        if not failed:
+            return moved
+        for k in failed:
+            rows_of[k], hull_faces = _hull(charts[k])
+            proxies[k] = (charts[k][rows_of[k]], hull_faces)
+    log(f"xatlas: charts {failed} moved by no similarity: packed on shelves instead")
+    return None
+
+
+def _shelves(charts: list[np.ndarray], pad: float) -> list[np.ndarray]:
+    """Boxes on shelves, tallest first: the fallback when xatlas's output is not one similarity
+    per chart (charts turned to their principal axes, each box ``pad`` apart)."""
+    from .atlas import pack_one
+
+    boxed = []
+    for U in charts:
+        C = pack_one(U, 0.0) - 0.5  # principal axes, longest side 1: scale back below
+        s = float(np.ptp(U, axis=0).max()) / max(float(np.ptp(C, axis=0).max()), 1e-300)
+        boxed.append(C * s)
+    sizes = np.array([np.ptp(C, axis=0) for C in boxed])
+    width = max(float(np.sqrt(((sizes + pad) ** 2).sum()) * 1.2), float(sizes[:, 0].max()))
+    x = y = shelf = 0.0
+    moved = [None] * len(charts)
+    for k in np.argsort(-sizes[:, 1]):
+        w, h = sizes[k]
+        if x > 0 and x + w > width:
+            x, y, shelf = 0.0, y + shelf + pad, 0.0
+        moved[k] = boxed[k] - boxed[k].min(axis=0) + [x, y]
+        x, shelf = x + w + pad, max(shelf, h)
+    return moved
+
+
+def pack_charts(V: np.ndarray, charts: list[Chart], gutter: float) -> tuple[list[np.ndarray], str]:
+    """Each chart's map placed in ``[gutter, 1 - gutter]^2`` (the module's packing), and the
+    packer's name (``"one chart"``, ``"xatlas"`` or ``"shelves"``)."""
+    from .atlas import pack_one
+
+    if len(charts) == 1:
+        return [pack_one(charts[0].U, gutter)], "one chart"
+    scaled = []
+    for c in charts:
+        P = V[c.origin]
+        a3 = _areas3(P, c.F)
+        good = a3 > 0
+        r = np.sqrt(np.abs(signed_areas(c.U, c.F))[good] / a3[good]) if good.any() else [1.0]
+        U = c.U / max(float(np.median(r)), 1e-300)
+        scaled.append(U - U.mean(axis=0))
+    moved, packer = _xatlas(scaled, [c.F for c in charts]), "xatlas"
+    if moved is None:
+        total = np.sqrt(sum(float(np.prod(np.ptp(U, axis=0))) for U in scaled))
+        moved, packer = _shelves(scaled, PADDING / RESOLUTION * total), "shelves"
+    allU = np.concatenate(moved)
+    lo, hi = allU.min(axis=0), allU.max(axis=0)
+    s = (1.0 - 2.0 * gutter) / float((hi - lo).max())
+    centre = (lo + hi) / 2.0
+    return [(U - centre) * s + 0.5 for U in moved], packer
+
+
+def charts_overlap(Us: list[np.ndarray], charts: list[Chart]) -> float:
+    """The area two charts' outlines share, as a fraction of the charts' area (shapely; 0
+    when the packing kept them apart)."""
+    import shapely
+    from shapely.strtree import STRtree
+
+    polys = [shapely.Polygon(U[np.asarray(max(boundary_loops(c.F), key=len))]).buffer(0)
+             for U, c in zip(Us, charts)]
+    tree = STRtree(polys)
+    shared = 0.0
+    for i, p in enumerate(polys):
+        for j in tree.query(p):
+            if j > i:
+                shared += float(p.intersection(polys[j]).area)
+    return shared / max(sum(p.area for p in polys), 1e-300)
