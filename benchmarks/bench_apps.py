@@ -35,6 +35,19 @@ TARGETS = {  # the issue's, quoted beside the measurements
 
 BOUNDARY_RULES = ([], ["--min-width", "1"], ["--cloud-spacing", "--min-width", "1"])
 
+STRAY_SHARE = 0.01
+"""Strays of the ``--strays`` clouds, as a share of the surface points (issue 39 item 4)."""
+
+STRAY_DEPTH = 0.5
+"""Their depth noise (Gaussian along the clean mesh's vertex normals), in mean edge lengths."""
+
+SLIVER_DEG = 10.0
+"""A triangle with an angle under this many degrees is a sliver."""
+
+POISSON_TRIM = 2.0
+"""Screened Poisson's triangles with a corner farther than this many mean edge lengths from
+the cloud are trimmed (the surface it invents away from the points)."""
+
 
 def meshlab_meshes(P: np.ndarray) -> list[dict]:
     """Ball pivoting (MeshLab's radius guess) and screened Poisson (normals from 10
@@ -242,6 +255,169 @@ def render(rows: list[dict], startup: float, argv, meta: dict) -> str:
     return "\n".join(lines)
 
 
+# --------------------------------------------------------------------------- strays
+
+
+def stray_cloud(V, F, kind: str, seed: int) -> tuple[np.ndarray, float]:
+    """The surface with depth noise of :data:`STRAY_DEPTH` mean edge lengths and
+    :data:`STRAY_SHARE` strays: ``box``, uniform in the bounding box enlarged by a fifth, at
+    least 4 edge lengths off the surface (as :func:`pcgeom.synthetic.holey_heightfield`);
+    ``near``, a surface point moved 3 to 20 edge lengths along its normal, either way (a
+    scanner's mixed pixels). Returns the cloud (surface points first) and the edge length."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(seed)
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    spacing = float(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1).mean())
+    N = H.mesh_normals(V, F)
+    noisy = V + N * rng.normal(scale=STRAY_DEPTH * spacing, size=(len(V), 1))
+    n = round(STRAY_SHARE * len(V))
+    if kind == "box":
+        low, high = V.min(axis=0), V.max(axis=0)
+        margin, tree, strays = 0.2 * (high - low), cKDTree(V), np.zeros((0, 3))
+        while len(strays) < n:
+            cand = rng.uniform(low - margin, high + margin, (4 * n, 3))
+            strays = np.vstack([strays, cand[tree.query(cand)[0] > 4 * spacing]])[:n]
+    else:
+        at = rng.choice(len(V), n, replace=False)
+        off = rng.choice([-1.0, 1.0], (n, 1)) * rng.uniform(3.0, 20.0, (n, 1)) * spacing
+        strays = V[at] + N[at] * off
+    return np.vstack([noisy, strays]), spacing
+
+
+def stray_score(V, F, s: H.Surface, diag: float) -> dict:
+    """Mesh -> true surface distances over ``diag`` (its vertices and 50 000 area samples):
+    largest and mean; the sliver share; vertices and boundary loops."""
+    import igl
+
+    from pcgeom.apps.reconstruct import mesh_report
+
+    V, F = np.asarray(V, np.float64), np.asarray(F, np.int64)
+    samples = H._area_sample(V, F, 50_000, np.random.default_rng(0))
+    d = H.distances(np.vstack([V, samples]), s.V, s.F) / diag
+    angles = []
+    for k in range(3):
+        a, b = V[F[:, (k + 1) % 3]] - V[F[:, k]], V[F[:, (k + 2) % 3]] - V[F[:, k]]
+        cos = (a * b).sum(1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1),
+                                          1e-300)
+        angles.append(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    rep = mesh_report(V, F, V)
+    return {"max_rel": float(d.max()), "mean_rel": float(d.mean()),
+            "sliver_pct": 100.0 * float((np.min(angles, axis=0) < SLIVER_DEG).mean()),
+            "n_vertices": len(V), "loops": len(igl.boundary_loop_all(F)) if rep["edge_manifold"]
+            else None}
+
+
+def meshlab_strays(P: np.ndarray, spacing: float) -> list[dict]:
+    """Ball pivoting and screened Poisson (depth 8, normals from 10 neighbours) trimmed at
+    :data:`POISSON_TRIM` edge lengths from the cloud, timed in process."""
+    from scipy.spatial import cKDTree
+
+    rows = []
+    for r in meshlab_meshes(P):
+        if r.get("error") or r["method"] != "screened Poisson":
+            rows.append(r)
+            continue
+        far = cKDTree(P).query(r["V"])[0] > POISSON_TRIM * spacing
+        F = r["F"][~far[r["F"]].any(axis=1)]
+        used, F = np.unique(F, return_inverse=True)
+        rows.append({**r, "method": f"screened Poisson, trimmed at {POISSON_TRIM:g} spacings",
+                     "V": r["V"][used], "F": F.reshape(-1, 3)})
+    return rows
+
+
+def strays_rows(args) -> list[dict]:
+    """``pcgeom reconstruct`` (defaults) of each surface's stray clouds, this tree and
+    ``--baseline``'s side by side, beside MeshLab's."""
+    import trimesh
+
+    rows = []
+    for name in args.strays:
+        s = H.load_surface(name)
+        diag = float(np.linalg.norm(s.V.max(axis=0) - s.V.min(axis=0)))
+        for kind in ("box", "near"):
+            for seed in args.seeds:
+                P, spacing = stray_cloud(s.V, s.F, kind, seed)
+                src = args.work / f"{name}_strays_{kind}_{seed}.xyz"
+                np.savetxt(src, P)
+                trees = [("pcgeom reconstruct", None)]
+                if args.baseline is not None:
+                    trees.insert(0, ("pcgeom reconstruct, before", args.baseline))
+                for method, tree in trees:
+                    out = args.work / f"{src.stem}_mesh.ply"
+                    old = os.environ.get("PYTHONPATH")
+                    os.environ["PYTHONPATH"] = os.fspath(tree or H.REPO)
+                    try:
+                        run = H.pcgeom_cli("reconstruct", src, "--out", out, check=False)
+                    finally:
+                        os.environ.pop("PYTHONPATH") if old is None else os.environ.update(
+                            PYTHONPATH=old)
+                    row = {"surface": name, "kind": kind, "seed": seed, "method": method,
+                           "seconds": run["wall_s"], "error": run["error"]}
+                    if not run["error"]:
+                        m = trimesh.load(out, process=False)
+                        row.update(stray_score(m.vertices, m.faces, s, diag))
+                    rows.append(row)
+                if not args.no_meshlab:
+                    for r in meshlab_strays(P, spacing):
+                        row = {"surface": name, "kind": kind, "seed": seed, "method": r["method"],
+                               "seconds": r.get("seconds"), "error": r.get("error", "")}
+                        if not row["error"]:
+                            row.update(stray_score(r["V"], r["F"], s, diag))
+                        rows.append(row)
+                for r in rows[-4:]:
+                    H.log(f"{name} {kind} {seed} {r['method']}: max {r.get('max_rel', 0):.4f} "
+                          f"mean {r.get('mean_rel', 0):.5f} slivers {r.get('sliver_pct', 0):.2f}%")
+    return rows
+
+
+def render_strays(rows: list[dict], argv, meta: dict) -> str:
+    """The medians over seeds of each surface, stray kind and method."""
+    groups: dict = {}
+    for r in rows:
+        groups.setdefault((r["surface"], r["kind"], r["method"]), []).append(r)
+    table = []
+    for (name, kind, method), runs in groups.items():
+        ok = [r for r in runs if not r["error"]]
+        if not ok:
+            table.append(f"| {name} | {kind} | {method} | failed: {runs[0]['error']} |")
+            continue
+        med = {k: statistics.median(r[k] for r in ok)
+               for k in ("max_rel", "mean_rel", "sliver_pct", "n_vertices", "seconds")}
+        table.append({"surface": name, "kind": kind, "method": method, "runs": len(ok),
+                      "max": f"{med['max_rel']:.4f} ({min(r['max_rel'] for r in ok):.4f}-"
+                             f"{max(r['max_rel'] for r in ok):.4f})",
+                      "mean": f"{med['mean_rel']:.5f}", "sliver": f"{med['sliver_pct']:.2f}",
+                      "V": f"{med['n_vertices']:.0f}", "s": f"{med['seconds']:.1f}",
+                      "loops": "/".join(str(r["loops"]) for r in ok)})
+    columns = [("surface", "{surface}"), ("strays", "{kind}"), ("method", "{method}"),
+               ("seeds", "{runs}"), ("max / diag (range)", "{max}"), ("mean / diag", "{mean}"),
+               ("slivers %", "{sliver}"), ("vertices", "{V}"), ("loops", "{loops}"),
+               ("time s", "{s}")]
+    return "\n".join([
+        "## Reconstruction of scans with strays (`bench_apps.py --strays`)", "",
+        f"- date: {meta['date']}; {meta['machine']}; load average {meta['load_start']} at the "
+        f"start, {meta['load_end']} at the end",
+        f"- command: `python benchmarks/bench_apps.py {' '.join(map(str, argv))}`",
+        f"- versions: {meta['versions']}",
+        f"- clouds: each shared surface's vertices with depth noise of {STRAY_DEPTH} mean edge "
+        f"lengths (Gaussian along the clean mesh's vertex normals) and {STRAY_SHARE:.0%} "
+        "strays: *box*, uniform in the bounding box enlarged by a fifth, at least 4 edge "
+        "lengths off the surface; *near*, surface points moved 3 to 20 edge lengths along "
+        "their normals (seeds as listed, medians over them)",
+        "- pcgeom: `pcgeom reconstruct CLOUD --out MESH` with its defaults (preset fast, "
+        "`--denoise auto`, as many target vertices as the default 5000), a subprocess timed from "
+        "outside; *before*: the same command on the tree given as `--baseline`, in the same run",
+        f"- MeshLab (pymeshlab, in process): ball pivoting (its radius guess); screened Poisson "
+        f"at depth 8 with normals from 10 neighbours, its triangles with a corner farther than "
+        f"{POISSON_TRIM:g} mean edge lengths from the cloud removed",
+        "- distances from the mesh (its vertices and 50 000 area samples) to the true mesh, "
+        f"over its bounding-box diagonal; slivers: triangles with an angle under "
+        f"{SLIVER_DEG:g} degrees; loops: the mesh's boundary loops per seed (the face has 4)",
+        "- target (issue 39 item 4): max <= 0.01, mean no worse than before, slivers <= 1%", "",
+        *H.table(columns, table), ""])
+
+
 def _map_arg(text: str) -> tuple[str, Path]:
     name, sep, path = text.partition("=")
     if not sep or name not in SURFACES or not path:
@@ -265,6 +441,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-meshlab", action="store_true", help="skip pymeshlab's methods")
     p.add_argument("--no-disk", action="store_true",
                    help="skip the disk map and its reconstruction (--domain disk)")
+    p.add_argument("--strays", nargs="*", metavar="NAME",
+                   help="instead: reconstructions of these surfaces with depth noise and 1%% "
+                        "strays beside MeshLab's (section bench_apps_strays)")
+    p.add_argument("--seeds", nargs="*", type=int, default=[0, 1, 2])
+    p.add_argument("--baseline", type=Path,
+                   help="with --strays: a pcgeom source tree run side by side as 'before'")
     args = p.parse_args(argv)
     args.given_maps = dict(args.maps)
     args.work.mkdir(parents=True, exist_ok=True)
@@ -275,6 +457,15 @@ def main(argv: list[str] | None = None) -> int:
     meta = {"date": H.now(), "machine": f"{platform.machine()}, {os.cpu_count()} cores",
             "load_start": load(),
             "versions": H.versions("pcgeom", "torch", "gmsh", "libigl", "pymeshlab")}
+    if args.strays is not None:
+        rows = strays_rows(args)
+        meta["load_end"] = load()
+        section = render_strays(rows, sys.argv[1:] if argv is None else argv, meta)
+        H.write_section(args.out, "bench_apps_strays", section)
+        if args.json:
+            H.write_json(args.json, {"meta": meta, "rows": rows})
+        print(section)
+        return 0
     startup = statistics.median(H.startup())
     rows = [bench_surface(name, args) for name in args.surfaces]
     meta["load_end"] = load()

@@ -8,7 +8,8 @@ import sys
 import warnings
 
 from ..apps.boundary import detect_boundary, unkept_holes
-from ..apps.reconstruct import (INTERPOLATIONS, SIZES, check_mesh_path, reconstruct_on_domain,
+from ..apps.reconstruct import (INTERPOLATIONS, SIZES, check_mesh_path, inlier_rows,
+                                 reconstruct_on_domain,
                                  reconstruct_on_sphere, reconstruct_surface, require_gmsh,
                                  texture_paths, write_mesh)
 from ..apps.texture import uv_scaling
@@ -56,6 +57,9 @@ examples:
 
 With a map made of denoised points (pcgeom param --denoise, or auto on a noisy scan), the
 mesh is lifted over the fitted points the map file keeps, and the distances below are to them.
+Strays (points the map's local mesh leaves out, or that the outlier test flags for a map
+without one) are never lifted: the mesh is made over the inliers only (--json: n_strays, and
+max_offset_spacings, the farthest vertex from them in their median point spacing).
 The mesh is edge-manifold, counter-clockwise in the map (so consistently oriented), with one
 boundary loop per detected loop (per domain loop with --domain); every loop point of INPUT is
 a mesh vertex (without --domain). With --domain and no --map, INPUT is mapped onto the
@@ -136,19 +140,22 @@ def run(args) -> int:
     lifted = result.fitted if result.fitted is not None else points
     if domain is not None and domain.closed:
         return _on_sphere(args, lifted, result, out)
+    # Strays are never lifted: the mesh is made over the inliers only (apps.reconstruct.lifting).
+    rows = inlier_rows(lifted, result.mesh_faces)
+    lifted, uv = lifted[rows], result.uv[rows]
+    lambda_inv = result.lambda_inv[rows] if result.lambda_inv is not None else None
     if domain is not None:
-        return _on_domain(args, lifted, result, domain, out)
-
-    loops = detect_boundary(result.uv, points=lifted, min_width=args.min_width,
+        return _on_domain(args, (lifted, uv, lambda_inv), result, domain, out)
+    loops = detect_boundary(uv, points=lifted, min_width=args.min_width,
                             cloud_spacing=args.cloud_spacing)
     if not loops.loops:
         raise InputError(f"{args.input}: its map has no boundary loop of {loops.min_loop} points "
                          f"or more ({len(loops.dropped)} smaller ones dropped); the "
                          "reconstruction would be empty")
-    V, F, Q, report = reconstruct_surface(lifted, result.uv, loops, size=args.size,
+    V, F, Q, report = reconstruct_surface(lifted, uv, loops, size=args.size,
                                           target_vertices=args.target_vertices or 5000,
-                                          lambda_inv=result.lambda_inv, return_uv=True)
-    report.update(_write(args, out, V, F, Q))
+                                          lambda_inv=lambda_inv, return_uv=True)
+    report.update(_write(args, out, V, F, Q), n_strays=len(points) - len(rows))
     summary = _summary(args, points, result, out, report, n_loops_detected=len(loops.loops))
     return _print(args, points, report, summary,
                   _loops_line(report, f"{len(loops.loops)} detected"))
@@ -186,22 +193,24 @@ def _summary(args, points, result, out, report: dict, **extra) -> dict:
     }
 
 
-def _on_domain(args, points, result, domain, out) -> int:
-    """The mesh of the domain itself, lifted over the map's Delaunay triangles; one warning
-    line when the cloud has holes the domain has not (the mesh fills them)."""
-    holes, kept = unkept_holes(result.uv, domain, points=points, min_width=args.min_width,
+def _on_domain(args, inliers, result, domain, out) -> int:
+    """The mesh of the domain itself, lifted over the map's Delaunay triangles of the inliers
+    (``(points, uv, lambda_inv)``); one warning line when the cloud has holes the domain has
+    not (the mesh fills them)."""
+    points, uv, lambda_inv = inliers
+    holes, kept = unkept_holes(uv, domain, points=points, min_width=args.min_width,
                                cloud_spacing=args.cloud_spacing)
     if holes > kept:
         warnings.warn(f"{args.input}: the cloud has {holes} hole(s) and the domain "
                       f"{domain.label} {kept}: the mesh covers the whole domain and fills "
                       f"{holes - kept} of them; to keep them, reconstruct without --domain "
                       "(the free boundary)", UserWarning, stacklevel=2)
-    V, F, Q, report = reconstruct_on_domain(points, result.uv, domain, size=args.size,
+    V, F, Q, report = reconstruct_on_domain(points, uv, domain, size=args.size,
                                             target_vertices=args.target_vertices or 5000,
-                                            lambda_inv=result.lambda_inv, return_uv=True)
-    report.update(_write(args, out, V, F, Q))
-    summary = _summary(args, points, result, out, report)
-    return _print(args, points, report, summary, _loops_line(
+                                            lambda_inv=lambda_inv, return_uv=True)
+    report.update(_write(args, out, V, F, Q), n_strays=len(result.uv) - len(points))
+    summary = _summary(args, result.uv, result, out, report)
+    return _print(args, result.uv, report, summary, _loops_line(
         report, f"{report['n_domain_loops']} in the domain {domain.label}"))
 
 

@@ -27,13 +27,14 @@ from __future__ import annotations
 
 from .export import MESH_FORMATS, check_mesh_path, texture_paths, write_mesh
 from .gmsh_mesh import mesh_domain, mesh_region, require_gmsh
-from .lifting import lift, map_delaunay
+from .lifting import inlier_rows, lift, map_delaunay
 from .report import mesh_report
 from .sphere import (INTERPOLATIONS, closed_checks, lift_sphere, mesh_sphere,
                      reconstruct_on_sphere, sphere_compression, sphere_triangulation)
 from .surface import SIZES, reconstruct_on_domain, reconstruct_surface
 
 __all__ = ["reconstruct_surface", "reconstruct_on_domain", "reconstruct_on_sphere", "lift",
+           "inlier_rows",
            "lift_sphere", "mesh_region", "mesh_domain", "mesh_sphere", "map_delaunay",
            "sphere_triangulation", "sphere_compression", "closed_checks", "mesh_report", "SIZES",
            "INTERPOLATIONS",

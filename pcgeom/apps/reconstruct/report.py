@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...maps.topology import SPACING_NEIGHBOURS, knn_spacing
 from ...mesh import half_edges
 
 
@@ -15,7 +16,9 @@ def mesh_report(V, F, points) -> dict:
     ``hausdorff_rel`` and ``mean_distance_rel`` (the largest and the mean distance from each
     mesh *vertex* to its nearest cloud point, vertex-to-point, over the cloud's bounding-box
     diagonal; a vertex between cloud points is up to half a spacing from every point even on
-    the true surface), ``min_angle_deg`` and ``max_aspect_ratio`` (circumradius over twice
+    the true surface), ``max_offset_spacings`` (the largest vertex-to-point distance in the
+    cloud's median spacing, :func:`pcgeom.maps.topology.knn_spacing`: a vertex lifted over
+    the inliers stays within a spacing or so of them), ``min_angle_deg`` and ``max_aspect_ratio`` (circumradius over twice
     the inradius, 1 for an equilateral triangle) of the triangles in 3D.
     """
     import igl
@@ -30,6 +33,7 @@ def mesh_report(V, F, points) -> dict:
     loops = igl.boundary_loop_all(F) if manifold else []
     diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
     dist, _ = cKDTree(P).query(V, k=1)
+    spacing = float(np.median(knn_spacing(P))) if len(P) > SPACING_NEIGHBOURS else np.inf
     L = np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2)  # (M, 3), edge k opposite k+2
     a, b, c = L[:, 0], L[:, 1], L[:, 2]
     area = 0.25 * np.sqrt(np.maximum((a + b + c) * (-a + b + c) * (a - b + c) * (a + b - c), 0))
@@ -46,6 +50,7 @@ def mesh_report(V, F, points) -> dict:
         "oriented": bool(oriented),
         "hausdorff_rel": float(dist.max() / diag),
         "mean_distance_rel": float(dist.mean() / diag),
+        "max_offset_spacings": float(dist.max() / spacing) if spacing > 0 else None,
         "min_angle_deg": float(np.degrees(np.arccos(cos).min())),
         "max_aspect_ratio": float(np.nan_to_num(aspect, nan=np.inf).max()),
     }
