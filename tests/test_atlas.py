@@ -282,3 +282,28 @@ def test_an_overlapping_chart_is_split(monkeypatch, torus):
     with pytest.raises(InputError, match=r"the atlas of this cloud is not one-to-one \(0 "
                        r"triangles turned over, [0-9.]+% of its area covered twice\) when"):
         parametrize(torus.points, cut="auto", progress=False)
+
+
+def test_finger_gets_seams_within_the_bound():
+    """A disk with a long thin finger: its one free map shrinks the finger (spread over the
+    true mesh in the hundreds); --cut auto brings every chart within the bound with no flip
+    and no overlap, the angle error inside charts that of libigl's LSCM on the true mesh cut
+    along the same seams. With a bound it already meets, no seam."""
+    from pcgeom.maps.atlas_eval import cut_map_report, same_seams_lscm
+    from pcgeom.synthetic_atlas import finger
+
+    s = finger(1500, seed=2)
+    assert euler_characteristic(s.faces) == 1 and len(boundary_loops(s.faces)) == 1
+    # One chart (a bound it meets): the free LSCM map of the disk, the finger shrunk.
+    loose = parametrize(s.points, "free", cut="auto", max_stretch=1e9, progress=False)
+    assert loose.history[-1]["seams"]["length"] == 0.0 and loose.history[-1]["charts"] == 1
+    assert loose.history[-1]["stretch"] > 100
+    r = parametrize(s.points, "free", cut="auto", progress=False)
+    rec = r.history[-1]
+    assert rec["seams"]["length"] > 0 and rec["chart_stretch"] <= 10.0
+    assert rec["flips"]["count"] == 0 and rec["overlap_area"] < 1e-9
+    rep = cut_map_report(s.points, s.faces, r)
+    assert rep["flipped"] == 0 and rep["stretch"] <= 10.0 and rep["overlap"] < 1e-9
+    assert rep["seam_crossed_percent"] < 2.0
+    base = same_seams_lscm(s.points, s.faces, r)
+    assert rep["mean_abs_angle_rad"] <= 1.5 * base["mean_abs_angle_rad"]

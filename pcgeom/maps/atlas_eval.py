@@ -18,7 +18,7 @@ import numpy as np
 from ..mesh import signed_areas
 from ..metrics import angle_distortion
 
-__all__ = ["triangle_uv", "cut_map_report", "CROSSED_RATIO"]
+__all__ = ["triangle_uv", "cut_map_report", "same_seams_lscm", "CROSSED_RATIO"]
 
 CROSSED_RATIO = 3.0
 """A true triangle whose best uv perimeter over its 3D perimeter exceeds this many times the
@@ -136,3 +136,58 @@ def cut_map_report(P, faces, result, *, overlap: bool = True) -> dict:
         "atlas_use": float(np.abs(signed_areas(C, CF)).sum()),
         "overlap": overlap_area(C, CF) if overlap else None,
     }
+
+
+def same_seams_lscm(P, faces, result) -> dict:
+    """libigl's LSCM on the reference mesh ``(P, faces)`` cut along the cut map's own seams:
+    the baseline of the angle figure.
+
+    The true triangles a seam crosses (:func:`triangle_uv`) are left out; two of the others
+    share a vertex where they give a point the same atlas position (a seam point's sides
+    differ), so the mesh falls into the map's charts, slits open. Each part: ``igl.lscm``
+    with two far boundary vertices pinned (the free-boundary minimizer up to a similarity).
+
+    Returns
+    -------
+    dict
+        ``mean_abs_angle_rad``, ``flipped``, ``n_faces``, ``parts``.
+    """
+    import igl
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from ..mesh import boundary_loops
+
+    P = np.asarray(P, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    T, crossed = triangle_uv(P, faces, result.mesh_faces, result.corner_uv)
+    F = faces[~crossed]
+    keys = np.column_stack([F.reshape(-1, 1).astype(np.float64), T[~crossed].reshape(-1, 2)])
+    _, ids = np.unique(keys, axis=0, return_inverse=True)
+    Fc = ids.reshape(-1, 3)
+    origin = np.zeros(int(Fc.max()) + 1, dtype=np.int64)
+    origin[Fc.ravel()] = F.ravel()
+    n = len(origin)
+    A = coo_matrix((np.ones(2 * len(Fc)), (np.r_[Fc[:, 0], Fc[:, 1]], np.r_[Fc[:, 1], Fc[:, 2]])),
+                   shape=(n, n))
+    count, label = connected_components(A, directed=False)
+    Vc = P[origin]
+    U = np.zeros((n, 2))
+    for c in range(count):
+        sub = np.flatnonzero(label[Fc[:, 0]] == c)
+        used, Fs = np.unique(Fc[sub], return_inverse=True)
+        Fs = Fs.reshape(-1, 3)
+        loop = np.asarray(max(boundary_loops(Fs), key=len))
+        V = Vc[used]
+        a = loop[np.argmax(np.linalg.norm(V[loop] - V[loop[0]], axis=1))]
+        b = loop[np.argmax(np.linalg.norm(V[loop] - V[a], axis=1))]
+        d = float(np.linalg.norm(V[a] - V[b]))
+        Us = igl.lscm(np.ascontiguousarray(V), np.ascontiguousarray(Fs),
+                      np.array([a, b], dtype=np.int64), np.array([[0.0, 0.0], [d, 0.0]]))[0]
+        Us = np.asarray(Us, dtype=np.float64)
+        if signed_areas(Us, Fs).sum() < 0:
+            Us[:, 1] *= -1.0
+        U[used] = Us
+    rep = angle_distortion(Vc, Fc, U)
+    return {"mean_abs_angle_rad": rep.mean_abs, "flipped": rep.flipped,
+            "n_faces": rep.n_faces, "parts": int(count)}
