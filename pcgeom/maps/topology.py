@@ -23,7 +23,10 @@ boundary into a folded planar map. This module measures the mesh's topology and 
    inside it, or else its least-area triangulation in space (:func:`_least_area_fill`);
    none of whose triangles faces away from its corners' normals or gives an edge a third
    triangle. Folds are not filled: measured on the shared open surfaces, a fill that folds
-   costs their maps (peaks_7holes_choi 0.030 to 0.046 rad, 9 flips).
+   costs their maps (peaks_7holes_choi 0.030 to 0.046 rad, 9 flips). The loops left that are
+   small (most false loops: no flat fill of the loop alone, as the mesh round it overlaps
+   itself or the loop runs through pinched vertices) have their neighbourhood re-meshed
+   flat instead (:func:`pcgeom.maps.fills.refill_small_loops`, its measured rule there).
 3. **Closed.** Without a long loop, the same fills; then the loops that no flat fill closes
    (the mesh overlaps itself there: noise, uneven density), or whose fill is wider than the
    bound, are opened further (their points' triangles go) and filled again, folds allowed,
@@ -52,6 +55,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh import half_edges as _directed
+from .fills import refill_small_loops
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
 
@@ -565,6 +569,8 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
             # the sampling leaves are filled where a flat fill closes them (a fold costs its
             # map).
             faces, filled, _, _ = _fill_pass(X, normals, faces, h, bound, exclude)
+            faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude)
+            filled += refilled
             return faces, _topology(before, pinched_before, *_measure(faces), filled, 0)
         faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude)
         if len(stuck) or long:
