@@ -1,118 +1,134 @@
-"""``cut="auto"`` measured: analytic tori (5k, 20k), a genus-2 implicit surface, the shared
-closed head (genus 0) and the shared open surfaces (seams from their holes to their rim).
+"""Seams and texture atlases (``--cut auto``) measured against issue 38's Done-means.
 
-For each: seams (genus, loops, length over sqrt(area)), flips, overlap (shapely union of the
-chart triangles), scale-factor spread (95th/5th percentile), time; and the angle error over
-the true triangles inside the chart: each true triangle takes, of its points' uv copies
-(a seam point has one per side), the combination with the smallest uv perimeter; a triangle
-whose best perimeter is still over 3x the median ratio of uv to 3D perimeter is crossed by a
-seam and left out (its share reported). Beside it, igl.lscm on the true mesh cut by the same
-method (tree-cotree on the true mesh: seams of the same construction, not the same edges).
+Surfaces: analytic tori (5k, 20k, 50k, with true triangles), the finger (a disk with a long
+thin tube: its one free chart shrinks the tube; true triangles), pretzels of genus 2, 3 and 4
+(implicit, no true triangles), the shared closed head and open surfaces. Each is mapped by
+``parametrize(points, "free", cut="auto")`` in process, bare points (no normals), ``fast``.
 
-    OMP_NUM_THREADS=1 python benchmarks/bench_atlas.py
+Figures of the atlas (its local mesh, per corner): charts, slits and splits, flips, overlap
+(the atlas triangles' area covered twice, shapely union, a fraction), scale-factor spread
+(95th/5th percentile of ``sqrt(uv area / 3D area)``; the worst chart's beside it), seam length
+over sqrt(area), atlas use, seconds (median of ``--repeats`` runs for the 50k rows). Where
+the surface has true triangles: the mean angle error over the true triangles inside charts,
+their flips, the share a seam crosses (left out), the spread over them, and libigl's LSCM on
+the true mesh cut along the same seams (:func:`pcgeom.maps.atlas_eval.same_seams_lscm`).
+
+    OMP_NUM_THREADS=1 python benchmarks/bench_atlas.py [--quick]
 """
 
 from __future__ import annotations
 
+import statistics
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
+import harness
 from pcgeom import parametrize
 from pcgeom.io import read_points
-from pcgeom.maps.atlas import chart_map, overlap_area
-from pcgeom.maps.atlas_eval import triangle_uv
-from pcgeom.maps.seams import cut_graph, cut_open
-from pcgeom.metrics import angle_distortion
+from pcgeom.maps.atlas import overlap_area
+from pcgeom.maps.atlas_eval import cut_map_report, same_seams_lscm
+from pcgeom.synthetic_atlas import finger, pretzel
 from pcgeom.synthetic_closed import closed_surface
 
-
-def angle_inside(P, faces, T, crossed):
-    F = faces[~crossed]
-    V = P[F].reshape(-1, 3)
-    U = T[~crossed].reshape(-1, 2)
-    rep = angle_distortion(V, np.arange(len(V)).reshape(-1, 3), U)
-    return rep.mean_abs, rep.flipped
+SHARED = ("closed_david_head_choi", "face_3holes_small_choi", "peaks_7holes_choi",
+          "face_human_choi", "peaks_three_cgal")
 
 
-def lscm_true(P, faces):
-    E, cut, info = cut_graph(P, faces)
-    Fc, origin = cut_open(faces, E, cut, len(P))
-    t = time.perf_counter()
-    U, _ = chart_map(P[origin], Fc)
-    V = P[origin]
-    rep = angle_distortion(V, Fc, U)
-    area = 0.5 * np.linalg.norm(np.cross(P[faces[:, 1]] - P[faces[:, 0]],
-                                         P[faces[:, 2]] - P[faces[:, 0]]), axis=1).sum()
-    return rep.mean_abs, rep.flipped, info["length"] / np.sqrt(area)
-
-
-def run(name, P, faces):
-    t = time.perf_counter()
-    r = parametrize(P, "free", cut="auto", progress=False)
-    sec = time.perf_counter() - t
+def run(name: str, kind: str, P, faces=None, repeats: int = 1) -> dict:
+    """One surface: the atlas's figures, and where ``faces`` is given the true mesh's."""
+    times, r, err = [], None, None
+    for _ in range(repeats):
+        t = time.perf_counter()
+        try:
+            r = parametrize(P, "free", cut="auto", progress=False)
+        except Exception as e:  # noqa: BLE001 - a refusal is a row
+            err = str(e).splitlines()[0]
+            break
+        times.append(time.perf_counter() - t)
+    if err:
+        harness.log(f"{name}: {err}")
+        return {"surface": name, "kind": kind, "n": len(P), "error": err}
     rec = r.history[-1]
     U = r.corner_uv.reshape(-1, 2)
-    ov = overlap_area(U, np.arange(len(U)).reshape(-1, 3))
-    line = (f"{name:28s} {len(P):6d}  g{rec['seams']['genus']} b{rec['seams'].get('boundary_loops', 0)} "
-            f"paths {rec['seams']['loops']}  "
-            f"flips {rec['flips']['count']}  overlap {ov:.1e}  spread {rec['stretch']:.2f}  "
-            f"seam/sqrtA {rec['seam_length']:.2f}  {sec:.1f} s")
+    row = {"surface": name, "kind": kind, "n": len(P), "genus": rec["seams"]["genus"],
+           "loops": rec["seams"].get("boundary_loops", 0), "charts": rec["charts"],
+           "slits": rec["seams"].get("slits", 0), "splits": rec["seams"].get("splits", 0),
+           "tutte": rec["seams"].get("tutte", 0), "flips": rec["flips"]["count"],
+           "overlap": overlap_area(U, np.arange(len(U)).reshape(-1, 3)),
+           "spread": rec["stretch"], "chart_spread": rec["chart_stretch"],
+           "seam": rec["seam_length"], "use": rec["atlas_use"], "packer": rec["packer"],
+           "s": statistics.median(times), "runs": len(times)}
     if faces is not None:
-        T, crossed = triangle_uv(P, faces,
-                                      r.mesh_faces, r.corner_uv)
-        ang, fl = angle_inside(P, faces, T, crossed)
-        la, lf, ls = lscm_true(P, faces)
-        line += (f"  | inside: angle {ang:.4f} flips {fl}, seam-crossed {100 * crossed.mean():.2f}%"
-                 f"  | igl.lscm true mesh cut: angle {la:.4f} flips {lf} seam/sqrtA {ls:.2f}")
-    print(line, flush=True)
+        rep = cut_map_report(P, faces, r, overlap=False)
+        base = same_seams_lscm(P, faces, r)
+        row.update(rad=rep["mean_abs_angle_rad"], true_flips=rep["flipped"],
+                   crossed=rep["seam_crossed_percent"], true_spread=rep["stretch"],
+                   lscm=base["mean_abs_angle_rad"], lscm_flips=base["flipped"],
+                   ratio=rep["mean_abs_angle_rad"] / max(base["mean_abs_angle_rad"], 1e-300))
+    harness.log(f"{name} {len(P)}: {row}")
+    return row
 
 
-def genus2(n: int, seed: int = 0) -> np.ndarray:
-    """About ``n`` points on the genus-2 implicit surface
-    ``(x (x - 1)^2 (x - 2) + y^2)^2 + z^2 = 0.03``: random points of its box projected onto it
-    (Newton along the gradient), thinned to a minimum distance (no true faces)."""
-    from scipy.spatial import cKDTree
-
-    def f(P):
-        x, y, z = P.T
-        return (x * (x - 1) ** 2 * (x - 2) + y ** 2) ** 2 + z ** 2 - 0.03
-
-    def grad(P, h=1e-6):
-        return np.column_stack([(f(P + d) - f(P - d)) / (2 * h) for d in np.eye(3) * h])
-
-    rng = np.random.default_rng(seed)
-    P = rng.uniform([-0.3, -1, -0.4], [2.3, 1, 0.4], size=(40 * n, 3))
-    for _ in range(30):
-        g = grad(P)
-        P = P - (f(P) / np.maximum((g * g).sum(1), 1e-12))[:, None] * g
-    P = P[np.abs(f(P)) < 1e-9]
-    keep = np.ones(len(P), dtype=bool)
-    tree = cKDTree(P)
-    for i in rng.permutation(len(P)):
-        if keep[i]:
-            keep[tree.query_ball_point(P[i], 0.62 * np.sqrt(6.0 / n))] = False
-            keep[i] = True
-    return P[keep]
-
-
-def main():
-    for n in (5000, 20000):
+def surfaces(quick: bool):
+    sizes = (5000,) if quick else (5000, 20000, 50000)
+    for n in sizes:
         s = closed_surface("torus", n)
-        run(f"torus uniform", s.points, s.faces)
-    s = closed_surface("torus", 5000, sampling="scan")
-    run("torus scan", s.points, s.faces)
-    for n in (5000, 20000):
-        P = genus2(n)
-        run("genus-2 implicit (no faces)", P, None)
-    data = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
-    for name in ("closed_david_head_choi", "face_3holes_small_choi", "peaks_7holes_choi",
-                 "face_human_choi", "peaks_three_cgal"):
-        if (data / f"{name}.ply").exists():
-            c = read_points(data / f"{name}.ply")
-            run(name, c.points, c.faces)
+        yield f"torus {n // 1000}k", "genus 1, no limbs", s.points, s.faces, 3 if n >= 50000 else 1
+    for n in (5000,) if quick else (5000, 20000):
+        s = finger(n)
+        yield f"finger {n // 1000}k", "open, a limb", s.points, s.faces, 1
+    for g in (2, 3, 4):
+        for n in (5000,) if quick else (5000, 20000):
+            yield f"pretzel g{g} {n // 1000}k", f"genus {g}", pretzel(g, n), None, 1
+    if not quick:
+        yield "pretzel g4 50k", "genus 4", pretzel(4, 50000), None, 3
+        for name in SHARED:
+            path = harness.DATA_DIR / f"{name}.ply"
+            if path.exists():
+                c = read_points(path)
+                yield name, "shared", c.points, c.faces, 1
+
+
+def main(argv=None) -> int:
+    p = harness.parser(__doc__, "the rows as JSON")
+    p.add_argument("--quick", action="store_true", help="5k points only, no shared surfaces")
+    args = p.parse_args(argv)
+    t0 = time.perf_counter()
+    rows = [run(name, kind, P, F, repeats) for name, kind, P, F, repeats in
+            surfaces(args.quick)]
+    ok = [r for r in rows if "error" not in r]
+    lines = ["## Seams and texture atlases, `--cut auto` (`benchmarks/bench_atlas.py`)", ""]
+    lines += harness.header(argv, f"load {harness.loadavg()}", "1 thread, in process, bare "
+                            "points, fast")
+    lines += ["", "The atlas (its local mesh, per corner; overlap: area covered twice, shapely "
+              "union, a fraction):", ""]
+    lines += harness.table([
+        ("surface", "{surface}"), ("points", "{n}"), ("kind", "{kind}"),
+        ("genus / loops", "{genus} / {loops}"), ("charts", "{charts}"),
+        ("slits / splits / Tutte", "{slits} / {splits} / {tutte}"), ("flips", "{flips}"),
+        ("overlap", "{overlap:.1e}"), ("spread (worst chart)", "{spread:.2f} ({chart_spread:.2f})"),
+        ("seam / sqrt(A)", "{seam:.2f}"), ("atlas use", "{use:.2f}"),
+        ("packer", "{packer}"), ("s", lambda r: f"{r['s']:.1f}" + (
+            f" (median of {r['runs']})" if r["runs"] > 1 else ""))], ok)
+    true = [r for r in ok if "rad" in r]
+    lines += ["", "On the true triangles (those a seam crosses left out, their share given), "
+              "beside libigl's LSCM on the true mesh cut along the same seams:", ""]
+    lines += harness.table([
+        ("surface", "{surface}"), ("rad inside charts", "{rad:.4f}"),
+        ("libigl LSCM, same seams", "{lscm:.4f}"), ("ratio", "{ratio:.2f}"),
+        ("flips (LSCM)", "{true_flips} ({lscm_flips})"), ("seam-crossed %", "{crossed:.2f}"),
+        ("spread", "{true_spread:.2f}")], true)
+    failed = [r for r in rows if "error" in r]
+    if failed:
+        lines += [""] + [f"- {r['surface']} ({r['n']} points): refused, `{r['error']}`"
+                         for r in failed]
+    lines += ["", f"({time.perf_counter() - t0:.0f} s in all.)"]
+    harness.write_section(args.out, "bench_atlas", "\n".join(lines))
+    if args.json:
+        harness.write_json(args.json, rows)
+    return 0
 
 
 if __name__ == "__main__":

@@ -11,9 +11,13 @@ closed surfaces of any genus (pretzels).
   from the tip, about one spacing apart, each ring with about ``2 pi rho / h`` points,
   jittered; its true triangles stitch consecutive rings (counter-clockwise seen from the
   outside: from above on the disk, from outside on the tube).
-- :func:`pretzel`: the implicit surface ``(p(x) + y^2)^2 + z^2 = eps`` with ``p(x) = x (x -
-  1)^2 ... (x - g + 1)^2 (x - g)``, which has a hole over each of the ``g`` intervals where
-  ``p < 0``: genus ``g``. Random points of its box projected onto it (Newton steps along the
+- :func:`pretzel`: the implicit surface ``(p(x) + y^2)^2 + z^2 = eps``, with a hole over
+  each of the ``g`` intervals between the roots of ``p`` where ``p < 0``: genus ``g``. For
+  ``g <= 2``, ``p(x) = x (x - 1)^2 (x - 2)`` (or ``x (x - 1)``); for ``g >= 3``, ``p(x) =
+  -sin^2(pi x) / (tanh(2 x) tanh(2 (g - x)))`` on ``[0, g]`` (wells of nearly one depth) and
+  ``-(pi^2 / 2) u (1 - 2 u)`` beyond, ``u = x`` or ``g - x``, scaled so that its shallowest
+  well is 0.3 deep (the tube is ``|p + y^2| < sqrt(eps)`` wide: holes of about 0.7 across).
+  Random points of its box projected onto it (Newton steps along the
   gradient), thinned to a minimum distance. No true triangles.
 """
 
@@ -151,15 +155,36 @@ def pretzel(genus: int, n: int, *, seed: int = 0, eps: float = 0.03) -> np.ndarr
     if genus < 1:
         raise InputError(f"pretzel: genus must be at least 1, got {genus}")
 
-    def p(x):
-        out = x * (x - genus)
-        for k in range(1, genus):
-            out = out * (x - k) ** 2
-        return out
+    def raw(x):
+        if genus <= 2:  # x (x - 1)^2 (x - 2): its wells equal by symmetry
+            out = x * (x - genus)
+            for k in range(1, genus):
+                out = out * (x - k) ** 2
+            return out
+        # sin^2(pi x) over a smooth ramp: double zeros inside, simple ones at 0 and g, wells
+        # of nearly one depth (a polynomial's middle wells are several times shallower, so
+        # thin that their holes close).
+        # Outside [0, g], -(pi^2 / 2) u (1 - 2 u) with u = x or g - x (< 0): positive,
+        # growing, its slope at the end that of the inside (tanh(2 g) = 1 to 1e-5).
+        u = np.minimum(x, genus - x)
+        ramp = np.tanh(2 * x) * np.tanh(2 * (genus - x))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inside = -np.sin(np.pi * x) ** 2 / ramp
+        inside = np.where(np.abs(ramp) < 1e-12, 0.0, inside)
+        return np.where(u < 0, -(np.pi ** 2 / 2) * u * (1 - 2 * u), inside)
+
+    # p scaled: at genus 1-2 to its classic depth (-0.1875 at x = 0.5 and 1.5: holes of
+    # about 0.12 across, since the tube is |p + y^2| < sqrt(eps) = 0.173 wide); beyond, so
+    # that its shallowest well is 0.3 deep (holes of about 0.7 across).
+    if genus <= 2:
+        scale = 1.0
+    else:
+        depth = [-float(raw(np.linspace(k, k + 1, 401)).min()) for k in range(genus)]
+        scale = 0.3 / min(depth)
 
     def fun(P):
         x, y, zz = P.T
-        return (p(x) + y ** 2) ** 2 + zz ** 2 - eps
+        return (scale * raw(x) + y ** 2) ** 2 + zz ** 2 - eps
 
     def grad(P, h=1e-6):
         return np.column_stack([(fun(P + d) - fun(P - d)) / (2 * h) for d in np.eye(3) * h])
@@ -170,13 +195,19 @@ def pretzel(genus: int, n: int, *, seed: int = 0, eps: float = 0.03) -> np.ndarr
         g = grad(P)
         P = P - (fun(P) / np.maximum((g * g).sum(1), 1e-12))[:, None] * g
     P = P[np.abs(fun(P)) < 1e-9]
-    # The area, from the genus-2 surface's (about 6 n spacing^2 at 0.62 sqrt(6 / n)) scaled by
-    # the box length: the thinning radius that leaves about n points.
-    radius = 0.62 * np.sqrt(6.0 / n) * np.sqrt(genus / 2.0)
-    keep = np.ones(len(P), dtype=bool)
+    P = P[rng.permutation(len(P))]
     tree = cKDTree(P)
-    for i in rng.permutation(len(P)):
-        if keep[i]:
-            keep[tree.query_ball_point(P[i], radius)] = False
-            keep[i] = True
+
+    def thin(radius):
+        keep = np.ones(len(P), dtype=bool)
+        for i in range(len(P)):
+            if keep[i]:
+                keep[tree.query_ball_point(P[i], radius)] = False
+                keep[i] = True
+        return keep
+
+    # A first radius from the genus-2 surface's area, then one correction to about n points.
+    radius = 0.75 * np.sqrt(6.0 / n) * np.sqrt(genus / 2.0)
+    keep = thin(radius)
+    keep = thin(radius * np.sqrt(keep.sum() / n))
     return P[keep]
