@@ -418,6 +418,139 @@ def render_strays(rows: list[dict], argv, meta: dict) -> str:
         *H.table(columns, table), ""])
 
 
+# --------------------------------------------------------------------------- loops
+
+
+LOOP_SURFACES = ("face_3holes_small_choi", "face_human_choi", "peaks_7holes_choi",
+                 "peaks_three_cgal")
+"""The shared open surfaces of ``--loops``."""
+
+SHEET_RADII = (1.0, 2.0, 3.0, 4.0, 5.0)
+"""Hole radii (spacings) of the synthetic sheets of ``--loops``."""
+
+
+def _true_boundary(F) -> tuple[np.ndarray, list[np.ndarray]]:
+    import igl
+
+    loops = [np.asarray(loop) for loop in igl.boundary_loop_all(np.ascontiguousarray(F))]
+    return np.concatenate(loops), loops
+
+
+def loop_scores(doc: dict, F) -> dict:
+    """Of a ``pcgeom boundary`` JSON against the true mesh ``F``: loops, holes, holes that are
+    not (fewer than half their points on the true boundary), gaps, true holes recovered (a
+    kept loop holds at least half of a true hole's points), precision and recall."""
+    on, true_loops = _true_boundary(F)
+    kinds = doc.get("kinds") or ["outer" if i == 0 or a > 0 else "hole"
+                                 for i, a in enumerate(doc["areas"])]
+    holes = [np.asarray(loop) for loop, k in zip(doc["loops"], kinds) if k == "hole"]
+    true_holes = sorted(true_loops, key=len)[:-1]  # the rim is the longest
+    found = [any(len(np.intersect1d(t, h)) >= 0.5 * len(t) for h in holes) for t in true_holes]
+    return {**H.boundary_scores(doc["loops"], F), "holes": len(holes),
+            "false_holes": sum(1 for h in holes if np.isin(h, on).mean() < 0.5),
+            "gaps": len(doc.get("gaps") or []), "holes_found": sum(found),
+            "true_holes": len(true_holes), "found": found}
+
+
+def loop_rows(args) -> list[dict]:
+    """``pcgeom boundary`` of the shared surfaces (normals, bare) and of holed sheets (bare),
+    before (``--baseline``, with ``--map``) and now (with and without ``--map``)."""
+    from pcgeom.io import write_ply_atomic
+    from pcgeom.synthetic_sheets import holed_sheet
+
+    cases = []
+    for name in args.loops:
+        if H.available(name):
+            s = H.load_surface(name)
+            bare = args.work / f"{name}.ply"
+            write_ply_atomic(bare, s.V, None)
+            cases += [(name, "normals", H.write_with_normals(args.work / f"{name}_normals.ply",
+                                                              s.V, s.F), s.F),
+                      (name, "bare", bare, s.F)]
+    for sampling in args.sheet_samplings:
+        sheet = holed_sheet(6000, radii=SHEET_RADII, sampling=sampling, seed=0)
+        src = args.work / f"holed_{sampling}.xyz"
+        np.savetxt(src, sheet.points)
+        cases.append((f"holed sheet, {sampling}", "bare", src, sheet.faces))
+    rows = []
+    for name, kind, src, F in cases:
+        m = get_map(src, None, args.work)
+        if m["path"] is None:
+            rows.append({"surface": name, "input": kind, "error": m.get("error")})
+            continue
+        runs = [("before", args.baseline, ["--map", m["path"]]), ("now", None, ["--map", m["path"]])]
+        if not args.no_unmapped:
+            runs.append(("now, no --map", None, []))
+        docs = {}
+        for label, tree, extra in runs:
+            if label == "before" and tree is None:
+                continue
+            out = args.work / f"{src.stem}_{label.replace(' ', '').replace(',', '_')}.json"
+            old = os.environ.get("PYTHONPATH")
+            os.environ["PYTHONPATH"] = os.fspath(tree or H.REPO)
+            try:
+                run = H.pcgeom_cli("boundary", src, *extra, "--out", out, check=False)
+            finally:
+                os.environ.pop("PYTHONPATH") if old is None else os.environ.update(
+                    PYTHONPATH=old)
+            row = {"surface": name, "input": kind, "version": label, "seconds": run["wall_s"],
+                   "error": run["error"]}
+            if not run["error"]:
+                docs[label] = json.loads(out.read_text())
+                row.update(loop_scores(docs[label], F))
+            rows.append(row)
+            H.log(f"{name} ({kind}) {label}: {row.get('loops')} loops, {row.get('holes')} holes "
+                  f"({row.get('false_holes')} false), {row.get('gaps')} gaps, recall "
+                  f"{row.get('recall')}")
+        if "now" in docs and "now, no --map" in docs:
+            rows[-1]["same_loops"] = docs["now"]["loops"] == docs["now, no --map"]["loops"]
+    return rows
+
+
+def render_loops(rows: list[dict], argv, meta: dict) -> str:
+    def cell(r, key, fmt="{}"):
+        return fmt.format(r[key]) if r.get(key) is not None else "-"
+
+    columns = [("surface", "{surface}"), ("input", "{input}"), ("version", "{version}"),
+               ("loops (true)", lambda r: f"{cell(r, 'loops')} ({cell(r, 'true_loops')})"),
+               ("holes", lambda r: cell(r, "holes")),
+               ("true holes found", lambda r: f"{cell(r, 'holes_found')}/{cell(r, 'true_holes')}"
+                + (" (" + " ".join("y" if f else "n" for f in r["found"]) + ")"
+                   if r.get("found") and r["surface"].startswith("holed") else "")),
+               ("holes that are not", lambda r: cell(r, "false_holes")),
+               ("gaps apart", lambda r: cell(r, "gaps")),
+               ("precision", lambda r: cell(r, "precision", "{:.3f}")),
+               ("recall", lambda r: cell(r, "recall", "{:.3f}")),
+               ("same loops as with --map", lambda r: {True: "yes", False: "**no**"}.get(
+                   r.get("same_loops"), "")),
+               ("time s", lambda r: cell(r, "seconds", "{:.1f}"))]
+    table = [r if not r.get("error") else f"| {r['surface']} | {r['input']} | "
+             f"{r.get('version', '')} | failed: {r['error']} |" for r in rows]
+    return "\n".join([
+        "## Boundary loops a QC script can trust (`bench_apps.py --loops`)", "",
+        f"- date: {meta['date']}; {meta['machine']}; load average {meta['load_start']} at the "
+        f"start, {meta['load_end']} at the end",
+        f"- command: `python benchmarks/bench_apps.py {' '.join(map(str, argv))}`",
+        f"- versions: {meta['versions']}",
+        "- each cloud mapped once by `pcgeom param --preset fast` (seed 0); `pcgeom boundary "
+        "CLOUD --map MAP` *before* (the tree given as `--baseline`, in the same run) and *now*; "
+        "*now, no --map*: `pcgeom boundary CLOUD`, which maps the cloud itself (its loops "
+        "compared with the row above)",
+        "- inputs: the shared surfaces with their reference mesh's vertex normals (*normals*) "
+        "and without (*bare*); holed sheets (`pcgeom.synthetic_sheets.holed_sheet`, 6000 "
+        f"points, holes of radius {', '.join(f'{r:g}' for r in SHEET_RADII)} spacings, "
+        "smallest first in the y/n list; samplings uniform, grid: rows jittered by a quarter, "
+        "scan: density falling 4x across), bare",
+        "- holes: loops of kind `hole` (before: the clockwise loops); *holes that are not*: "
+        "fewer than half of their points on the true boundary; *true holes found*: a hole holds "
+        "at least half of a true hole's points; precision and recall of the kept loops' points "
+        "against the true boundary vertices",
+        "- targets (issue 39 item 3): same loops with and without `--map`; face_human_choi with "
+        "normals 1 outer loop, no hole; bare, every true hole found, recall >= 0.95, at most 2 "
+        "holes that are not; peaks_7holes_choi its 8 loops", "",
+        *H.table(columns, table), ""])
+
+
 def _map_arg(text: str) -> tuple[str, Path]:
     name, sep, path = text.partition("=")
     if not sep or name not in SURFACES or not path:
@@ -445,8 +578,15 @@ def main(argv: list[str] | None = None) -> int:
                    help="instead: reconstructions of these surfaces with depth noise and 1%% "
                         "strays beside MeshLab's (section bench_apps_strays)")
     p.add_argument("--seeds", nargs="*", type=int, default=[0, 1, 2])
+    p.add_argument("--loops", nargs="*", metavar="NAME",
+                   help="instead: pcgeom boundary's loops, kinds and gaps on these surfaces "
+                        "and on holed sheets (section bench_apps_loops)")
+    p.add_argument("--sheet-samplings", nargs="*", default=["uniform", "grid", "scan"])
+    p.add_argument("--no-unmapped", action="store_true",
+                   help="with --loops: skip the runs without --map")
     p.add_argument("--baseline", type=Path,
-                   help="with --strays: a pcgeom source tree run side by side as 'before'")
+                   help="with --strays or --loops: a pcgeom source tree run side by side "
+                        "as 'before'")
     args = p.parse_args(argv)
     args.given_maps = dict(args.maps)
     args.work.mkdir(parents=True, exist_ok=True)
@@ -457,6 +597,16 @@ def main(argv: list[str] | None = None) -> int:
     meta = {"date": H.now(), "machine": f"{platform.machine()}, {os.cpu_count()} cores",
             "load_start": load(),
             "versions": H.versions("pcgeom", "torch", "gmsh", "libigl", "pymeshlab")}
+    if args.loops is not None:
+        args.loops = args.loops or list(LOOP_SURFACES)
+        rows = loop_rows(args)
+        meta["load_end"] = load()
+        section = render_loops(rows, sys.argv[1:] if argv is None else argv, meta)
+        H.write_section(args.out, "bench_apps_loops", section)
+        if args.json:
+            H.write_json(args.json, {"meta": meta, "rows": rows})
+        print(section)
+        return 0
     if args.strays is not None:
         rows = strays_rows(args)
         meta["load_end"] = load()

@@ -38,7 +38,8 @@ sys.path.insert(0, os.fspath(REPO))
 os.environ["PYTHONPATH"] = os.pathsep.join(
     [os.fspath(REPO)] + ([os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else []))
 
-SECTIONS = ("bench_schedules", "gpu", "bench_apps", "bench_apps_strays", "bench_batch", "bench_scans",
+SECTIONS = ("bench_schedules", "gpu", "bench_apps", "bench_apps_strays", "bench_apps_loops",
+            "bench_batch", "bench_scans",
             "bench_scans_large", "bench_scans_denoise", "bench_domains", "bench_domain_maps",
             "bench_folds", "bench_scans_small", "bench_sphere", "bench_reconstruct_sphere",
             "bench_topology", "bench_atlas")

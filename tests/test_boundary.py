@@ -216,11 +216,15 @@ def test_cloud_spacing_opens_a_hole_that_the_map_shrank():
     r = np.linalg.norm(d, axis=1, keepdims=True)
     U = centre + d * np.where(r < 7.0, (r - 2.5) / (7.0 - 2.5) * 7.0 / r, 1.0).clip(0.1)
     U[r[:, 0] >= 7.0] = P[r[:, 0] >= 7.0, :2]
-    plain = detect_boundary(U, points=P)
-    opened = detect_boundary(U, points=P, cloud_spacing=True)
+    plain = detect_boundary(U, points=P, kinds=False)
+    opened = detect_boundary(U, points=P, cloud_spacing=True, kinds=False)
     assert len(plain.loops) == 1  # the map alone does not see it
     assert len(opened.loops) == 2 and opened.areas[1] < 0
     assert len(opened.loops[1]) >= 24  # along the 28 grid points around the hole (32 found)
+    # By default (kinds) the cloud's spacing casts the candidates, and the evidence keeps it.
+    judged = detect_boundary(U, points=P)
+    assert judged.kinds() == ["outer", "hole"] and judged.gaps == []
+    np.testing.assert_array_equal(judged.loops[1], opened.loops[1])
 
 
 def test_min_width_measures_holes_on_the_surface_and_drops_the_narrow_ones():
@@ -433,6 +437,14 @@ def test_cli_with_a_map_writes_the_loops(tmp_path, capsys):
     assert "2 boundary loop(s)" in stdout
     assert "loop 1 (outer): 44 points" in stdout
     assert "loop 2 (hole): 12 points, 2.0 spacings wide" in stdout  # a 4 x 4 gap
+    # Issue 39 item 3: every loop's evidence and kind, the gaps apart (none here).
+    assert doc["kinds"] == ["outer", "hole"] and doc["gaps"] == doc["gap_evidence"] == []
+    hole = doc["loop_evidence"][1]
+    assert hole["kind"] == "hole" and 0.0 <= hole["confidence"] <= 1.0
+    assert set(hole) == {"kind", "confidence", "perimeter", "perimeter_spacings",
+                         "width_spacings", "roundness", "empty_spacings",
+                         "sampling_empty_spacings", "empty_ratio", "normals_agree"}
+    assert hole["empty_ratio"] >= 1.15 and hole["normals_agree"] == 1.0  # a flat sheet
     assert (tmp_path / "loops.png").read_bytes()[:8] == PNG_SIGNATURE
 
     code = cli.main(["boundary", str(src), "--map", str(map_path), "--out", str(out),
@@ -557,3 +569,50 @@ def test_cli_maps_with_the_files_normals_as_param_does(tmp_path, capsys):
                     "--out", str(tmp_path / "x.json")],
            "--normals applies only without --map (when the cloud is mapped here); a map's "
            "normals were chosen by 'pcgeom param --normals'")
+
+
+def _torn_sheet() -> tuple[np.ndarray, np.ndarray]:
+    """A sheared grid at z = 0.1 i with a round hole (radius 3.2 spacings), and its map torn
+    open along a lens between two rows that the surface does not have (as the local-mesh map
+    opens where a scan's rows jump)."""
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(30), np.arange(24), indexing="xy"))
+    P = np.column_stack([i + 0.2 * j, j, 0.1 * i]).astype(np.float64)
+    hole = np.linalg.norm(P[:, :2] - [22 + 0.2 * 16, 16], axis=1) < 3.2
+    P, i, j = P[~hole], i[~hole], j[~hole]
+    U = P[:, :2].copy()
+    lens = np.clip(1 - np.abs(i - 9) / 5.0, 0, None) * (np.abs(j - 6.5) < 2)
+    U[:, 1] += np.where(j >= 7, 1.0, -1.0) * lens
+    return U, P
+
+
+def test_a_tear_of_the_map_is_a_gap_and_the_hole_stays_a_hole():
+    """Issue 39 item 3: the map's rule sees three loops; in 3D the tear has no empty circle
+    wider than the sampling's (ratio 1.0, roundness 0.24) and the hole has (3.9, 0.84)."""
+    U, P = _torn_sheet()
+    every = detect_boundary(U, points=P, kinds=False)
+    assert [len(loop) for loop in every.loops] == [104, 20, 14]
+    judged = detect_boundary(U, points=P)
+    assert judged.kinds() == ["outer", "hole"]
+    np.testing.assert_array_equal(judged.loops[1], every.loops[1])
+    assert len(judged.gaps) == 1 and judged.gap_evidence[0]["kind"] == "gap"
+    assert set(every.loops[2]) <= set(judged.gaps[0])  # the tear, spanned and set apart
+    assert judged.gap_evidence[0]["empty_ratio"] < 1.15 < judged.evidence[1]["empty_ratio"]
+    # The tear's triangles are kept: the surface spans it, so a reconstruction does too.
+    assert len(judged.triangles) > len(every.triangles)
+    doc = judged.to_dict()
+    assert doc["gaps"] == [judged.gaps[0].tolist()] and doc["kinds"] == ["outer", "hole"]
+
+
+def test_cli_every_loop_keeps_the_rules_loops(tmp_path, capsys):
+    U, P = _torn_sheet()
+    src = tmp_path / "torn.xyz"
+    np.savetxt(src, P)
+    map_path = _write_map(tmp_path / "map.npz", read_points(src).points, U)
+    out = tmp_path / "loops.json"
+    for extra, kinds, gaps in (([], ["outer", "hole"], 1),
+                               (["--every-loop"], ["outer", "hole", "hole"], 0)):
+        assert cli.main(["boundary", str(src), "--map", str(map_path), "--out", str(out),
+                         "--json", *extra]) == 0
+        summary = json.loads(capsys.readouterr().out)
+        assert summary["kinds"] == kinds and summary["n_gaps"] == gaps, extra
+        assert (summary["confidence"] is None) == bool(extra)

@@ -39,15 +39,20 @@ examples:
   pcgeom boundary scan.ply --map scan_uv.npz --min-width 1 --out loops.json
       also drop holes narrower on the surface than one point spacing (sampling gaps of an
       unevenly sampled scan; a true hole only ~3 spacings across goes too)
-  pcgeom boundary scan.ply --map scan_uv.npz --cloud-spacing --min-width 1 --out loops.json
-      an evenly sampled scan whose small holes the map shrank: triangles are also judged in
-      3D against the cloud's spacing (peaks_7holes_choi: 8 loops instead of 3)
+  pcgeom boundary scan.ply --map scan_uv.npz --every-loop --out loops.json
+      every loop of the map's rule, none judged or set apart as a sampling gap (the default
+      judges each: face_human_choi bare 22 loops -> 3, peaks_7holes_choi 3 -> its 8)
 
 LOOPS.json holds {{"loops": [[i0, i1, ...], ...], "h": ..., ...}}: each loop as rows of INPUT
 (from 0), outer loop first (counter-clockwise in the map), then the holes by size. Without
 --h, triangles are judged against the local point spacing of the map, which needs no scale
 (see pcgeom.apps.boundary). Without --map the cloud is mapped as 'pcgeom param INPUT' maps it
 (preset fast, seed 0, the file's normals unless --normals ignore). Loops of fewer than {DEFAULT_MIN_LOOP} points are dropped as sampling gaps.
+Each loop is judged by its evidence in 3D (its own largest empty circle against the widest
+the sampling leaves around it, its roundness, its rim's normals; pcgeom.apps.loop_kinds) and
+gets a kind (outer, hole) and a confidence in [0, 1]; loops the evidence calls gaps of the
+sampling are spanned by the surface and listed apart ("gaps", "gap_evidence"); --every-loop
+keeps every loop of the map's rule instead (as --h does).
 Each hole's width on the surface (its 3D inradius estimate over the local point spacing) is
 reported; --min-width drops the narrower ones. Faces in INPUT never make loops (they shape the
 map only, as in 'pcgeom param').
@@ -85,7 +90,8 @@ def add_hole_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cloud-spacing", action="store_true",
                    help="also open holes that the map shrank, judging each triangle in 3D "
                         "against the cloud's own point spacing (for evenly sampled clouds; "
-                        "see pcgeom.apps.boundary)")
+                        "see pcgeom.apps.boundary); the judged loops of the default always "
+                        "cast their candidates so, this applies with --h or --every-loop")
 
 
 def add_normals_option(p: argparse.ArgumentParser) -> None:
@@ -115,6 +121,9 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="remove every triangle with an edge longer than H in the map (the "
                         "paper's rule; default: a rule from the local point spacing)")
     add_hole_options(p)
+    p.add_argument("--every-loop", action="store_true",
+                   help="keep every loop of the map's rule as it comes (no evidence, no kinds, "
+                        "sampling gaps not set apart)")
     add_normals_option(p)
     add_output_options(p, "LOOPS.json", "the loops, as JSON", required=True)
     p.add_argument("--plot", metavar="LOOPS.png",
@@ -140,7 +149,7 @@ def run(args) -> int:
     # A denoised map was made of the fitted points: the holes' widths are measured on them.
     surface = result.fitted if result.fitted is not None else points
     found = detect_boundary(result.uv, h=args.h, points=surface, min_width=args.min_width,
-                            cloud_spacing=args.cloud_spacing)
+                            cloud_spacing=args.cloud_spacing, kinds=not args.every_loop)
     document = {**found.to_dict(), "input": args.input, "n_points": len(points)}
     write_atomic(out, lambda f: f.write(json.dumps(document).encode("utf-8")))
     if plot is not None:
@@ -164,6 +173,10 @@ def run(args) -> int:
         "loop_points": [len(loop) for loop in found.loops],
         "hole_widths": found.to_dict()["widths"],
         "n_dropped": len(found.dropped),
+        "kinds": found.kinds(),
+        "confidence": (None if found.evidence is None
+                       else [e["confidence"] for e in found.evidence]),
+        "n_gaps": len(found.gaps),
         # "input", "estimated" or "none": the normals the map was made with (of a --map: as
         # its history records them, None when it does not)
         "normals": (_normals_used(result.history, cloud.normals is not None) if args.map is None
@@ -177,10 +190,16 @@ def run(args) -> int:
             else f"local spacing rule, c = {found.c:g}")
     print(f"{args.input}: {len(points)} points, {len(found.loops)} boundary loop(s) ({rule}) "
           f"-> {summary['out']}" + (f", {summary['plot']}" if plot else ""))
-    for i, (loop, area, width) in enumerate(zip(found.loops, found.areas, found.widths)):
-        kind = "outer" if i == 0 else "hole" if area < 0 else "island"
+    evidence = found.evidence or [None] * len(found.loops)
+    for i, (loop, area, width, kind, ev) in enumerate(zip(found.loops, found.areas, found.widths,
+                                                           found.kinds(), evidence)):
         wide = f", {width:.1f} spacings wide" if area < 0 else ""
-        print(f"  loop {i + 1} ({kind}): {len(loop)} points{wide}")
+        sure = (f", empty circle {ev['empty_ratio']:.2f} x the sampling's, confidence "
+                f"{ev['confidence']:.2f}" if ev is not None and kind != "outer" else "")
+        print(f"  loop {i + 1} ({kind}): {len(loop)} points{wide}{sure}")
+    if found.gaps:
+        print(f"  {len(found.gaps)} sampling gap(s) set apart (spanned by the surface; "
+              f"'gaps' in {summary['out']})")
     if found.dropped:
         narrower = f" or holes narrower than {found.min_width:g} spacings" if found.min_width else ""
         print(f"  {len(found.dropped)} loop(s) of fewer than {found.min_loop} points{narrower} "
