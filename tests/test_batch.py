@@ -407,3 +407,72 @@ def test_batch_reconstructs_in_worker_threads(tmp_path, capfd, monkeypatch, tiny
     assert [ln for ln in err.splitlines() if "columns 4-6" in ln] == [
         "pcgeom: warning: rgb: scans/rgb.xyz: columns 4-6 are not unit vectors (lengths 202 to "
         "202), so not read as normals; name them in a header row (x y z nx ny nz) to use them"]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def dask_processes(tmp_path):
+    """A ``dask scheduler`` and two ``dask worker`` processes, started as a user starts them
+    (the CLI, each its own process); the scheduler's address. Stopped after the test."""
+    import subprocess
+    import sys
+    import time
+
+    from distributed import Client
+
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    common = ["--no-dashboard"]
+    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
+                               "--port", address.rsplit(":", 1)[1], *common],
+                              cwd=tmp_path, env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)]
+    try:
+        for k in range(2):
+            procs.append(subprocess.Popen(
+                [sys.executable, "-m", "dask", "worker", address, "--nthreads", "1",
+                 "--name", f"w{k}", "--local-directory", str(tmp_path / f"w{k}"), *common],
+                cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        deadline = time.monotonic() + 60
+        with Client(address, timeout=60) as client:
+            while len(client.scheduler_info()["workers"]) < 2:
+                assert time.monotonic() < deadline, "the dask workers did not start"
+                time.sleep(0.2)
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def test_batch_boundary_and_reconstruct_on_a_dask_scheduler_with_two_worker_processes(
+        tmp_path, capsys, monkeypatch, tiny, dask_processes):
+    """Issue 39: on a cluster started as ``dask scheduler`` plus ``dask worker`` processes,
+    ``--boundary --reconstruct`` wrote the maps and loops but gmsh failed in the workers'
+    threads ("signal only works in main thread"); every scan's map, loops and mesh are
+    written and the batch exits 0."""
+    monkeypatch.chdir(tmp_path)
+    _write_scans(tmp_path / "scans", n=2, broken=False)
+    argv = ["batch", "scans/*", "--out", "maps", "--scheduler", dask_processes, "--boundary",
+            "--reconstruct", "--target-vertices", "150", "--json", "--quiet"]
+    assert cli.main(argv) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert (report["n_ok"], report["n_error"]) == (2, 0)
+    rows = _summary(Path("maps"))
+    assert sorted(r["name"] for r in rows) == ["scan0", "scan1"]
+    assert all(r["status"] == "ok" and r["error"] == "" for r in rows)
+    for k in range(2):
+        assert ParamResult.load(Path("maps") / f"scan{k}_uv.npz", n_points=324).seed == 0
+        loops = json.loads((Path("maps") / f"scan{k}_loops.json").read_text())
+        assert loops  # the loops file holds the report
+        mesh = read_points(Path("maps") / f"scan{k}_mesh.ply")
+        assert 75 <= len(mesh.points) <= 300 and mesh.faces is not None and len(mesh.faces)
