@@ -471,12 +471,23 @@ def render_denoise(depth, clean, recon) -> list[str]:
     return out
 
 
+TITLES = {
+    "bench_scans": "normals, noise, size",
+    "bench_scans_large": "the largest clouds",
+    "bench_scans_denoise": "depth noise and denoising",
+    "bench_scans_small": "small clouds, before and after",
+}
+"""The heading of each section this script writes (``--section``), after "Real-scan
+conditions: "."""
+
+
 def render(quality, disk, noise, scale, argv, plot: str | None, depth=(), clean=(),
-           recon=(), small=()) -> str:
+           recon=(), small=(), *, section: str = "bench_scans") -> str:
     import os
     import platform
 
-    out = ["## Real-scan conditions: normals, noise, size (`benchmarks/bench_scans.py`)", "",
+    title = TITLES.get(section, section)
+    out = [f"## Real-scan conditions: {title} (`benchmarks/bench_scans.py`)", "",
            *H.header(argv, f"{os.cpu_count()} cores, Python {platform.python_version()}",
                      f"load average at end {H.loadavg() or 'n/a'}"), "",
            "`fast` maps the free boundary with the local mesh (same-sheet tangent fans merged "
@@ -624,7 +635,7 @@ def main(argv=None) -> int:
         plot = (folder / f"{stem}_time_vs_n.png").relative_to(home).as_posix()
     H.write_section(args.out, args.section,
                     render(quality, disk, noise, scale, argv, plot, depth, clean, recon,
-                           small))
+                           small, section=args.section))
     return 0
 
 
