@@ -66,7 +66,8 @@ def cloud_row(case: str, points, clean, faces, work: Path) -> dict:
         return {**row, "error": run["error"].split("error: ")[-1], "wall_s": run["wall_s"]}
     result = ParamResult.load(out, n_points=len(points))
     S = result.uv
-    row.update(_score(S, clean, faces), wall_s=run["wall_s"], rss_gb=run["rss_gb"],
+    row.update(_score(S, clean, faces), wall_s=run["wall_s"], cpu_s=run["cpu_s"],
+               rss_gb=run["rss_gb"],
                method=result.history[-1].get("method", "-"),
                seconds=run["json"]["seconds"], error="")
     H.log(f"{case}: {row['rad']:.4f} rad ({row['flipped']} flipped), anchor "
@@ -189,8 +190,10 @@ def verdicts(rows) -> list[str]:
         time_cap, mem_cap = TIME_CAPS.get(r["n"], (None, None))
         extra = ""
         if time_cap is not None:
-            ok_time = r["wall_s"] <= time_cap and (mem_cap is None or r["rss_gb"] <= mem_cap)
-            extra = (f"; {r['wall_s']:.1f} s, {r['rss_gb']:.2f} GB (<= {time_cap:g} s"
+            # The CPU seconds: the wall time of a loaded machine is the other processes' too.
+            ok_time = r["cpu_s"] <= time_cap and (mem_cap is None or r["rss_gb"] <= mem_cap)
+            extra = (f"; {r['cpu_s']:.1f} CPU s ({r['wall_s']:.1f} s wall), "
+                     f"{r['rss_gb']:.2f} GB (<= {time_cap:g} s"
                      + (f", {mem_cap:g} GB" if mem_cap else "") + f"): "
                      + ("PASS" if ok_time else "FAIL"))
         lines.append(f"- {r['case']} ({r['n']} points): {r['rad']:.4f} rad against the anchor's "
@@ -240,7 +243,9 @@ def render(rows, methods, argv) -> str:
         *H.header(argv, f"{os.cpu_count()} cores, Python {platform.python_version()}",
                   f"load average at end {H.loadavg() or 'n/a'}"), "",
         "`pcgeom param CLOUD.xyz --domain sphere` (bare points, `fast`, the CLI timed from "
-        "outside with its peak memory) on `pcgeom.synthetic_closed.closed_surface(shape, n, "
+        "outside with its peak memory; CPU s: its user and system seconds, what the wall "
+        "time is on an idle machine, since it runs one thread; the time targets read them, "
+        "the machine being shared) on `pcgeom.synthetic_closed.closed_surface(shape, n, "
         "sampling=, noise=)` and the shared closed david head. Angle distortion of the chord "
         "triangles (the true triangles with the mapped unit vectors as corners) against the "
         "clean true surface; flipped: turned against the centre. The anchor (issue 37 item 3) "
@@ -262,6 +267,7 @@ def render(rows, methods, argv) -> str:
                   ("anchor flipped", "{anchor_flipped}"),
                   ("anchor on the clean mesh, rad", lambda r: _cell(r, "clean_rad", ".4f")),
                   ("wall s", lambda r: _cell(r, "wall_s", ".1f")),
+                  ("CPU s", lambda r: _cell(r, "cpu_s", ".1f")),
                   ("peak GB", lambda r: _cell(r, "rss_gb", ".2f"))],
                 [r for r in rows if not r.get("seed")]), "",
         *verdicts([r for r in rows if not r.get("seed")]), "",

@@ -60,25 +60,27 @@ def log(msg: str) -> None:
 _SPAWN = ("import json, os, sys, time; t = time.perf_counter(); "
           "pid = os.posix_spawn(sys.argv[2], sys.argv[2:], os.environ); "
           "_, s, u = os.wait4(pid, 0); "
-          "json.dump([time.perf_counter() - t, u.ru_maxrss, os.waitstatus_to_exitcode(s)], "
-          "open(sys.argv[1], 'w'))")
-"""Run ``argv[2:]``, then write its wall seconds, peak RSS (KiB) and exit code to ``argv[1]``.
+          "json.dump([time.perf_counter() - t, u.ru_maxrss, os.waitstatus_to_exitcode(s), "
+          "u.ru_utime + u.ru_stime], open(sys.argv[1], 'w'))")
+"""Run ``argv[2:]``, then write its wall seconds, peak RSS (KiB), exit code and CPU seconds
+(user and system) to ``argv[1]``.
 A small process in between, because a child's ``ru_maxrss`` starts at its parent's RSS."""
 
 
 def pcgeom_cli(*args, check: bool = True) -> dict:
     """``python -m pcgeom ARGS --quiet --json``, timed around the whole process: its
-    ``json`` summary, ``wall_s``, its peak RSS ``rss_gb``, and ``error`` ("" when it
-    succeeded; raised as RuntimeError when ``check``)."""
+    ``json`` summary, ``wall_s``, its CPU seconds ``cpu_s`` (what the wall time would be on
+    an idle machine, the process being single-threaded), its peak RSS ``rss_gb``, and
+    ``error`` ("" when it succeeded; raised as RuntimeError when ``check``)."""
     cmd = [sys.executable, "-m", "pcgeom", *map(str, args), "--quiet", "--json"]
     with tempfile.TemporaryDirectory() as tmp:
         out, err, stats = (Path(tmp) / name for name in ("stdout", "stderr", "stats.json"))
         with out.open("w") as so, err.open("w") as se:
             subprocess.run([sys.executable, "-c", _SPAWN, stats, *cmd], stdout=so, stderr=se,
                            cwd=tempfile.gettempdir(), check=True)
-        wall, rss_kib, code = json.loads(stats.read_text())
+        wall, rss_kib, code, cpu = json.loads(stats.read_text())
         stdout, stderr = out.read_text(), err.read_text()
-    run = {"json": None, "wall_s": wall, "rss_gb": rss_kib / 1e6, "error": ""}
+    run = {"json": None, "wall_s": wall, "cpu_s": cpu, "rss_gb": rss_kib / 1e6, "error": ""}
     if code != 0:
         run["error"] = f"exit {code}: " + " | ".join(stderr.strip().splitlines()[-3:])
     else:
