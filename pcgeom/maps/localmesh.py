@@ -15,6 +15,10 @@ map of :mod:`pcgeom.maps.free`, the disk and domain maps after it):
    ones most fans agree on first, then the better-shaped: a triangle is kept only if each of its
    edges stays in at most two triangles, with opposite directions. The result is edge-manifold
    and consistently oriented. (LSCM over the plain union of the fans folds: DESIGN.md.)
+4. **Topology.** The mesh is repaired (:mod:`pcgeom.maps.topology`). On request
+   (``local_mesh(..., bridges=True)``, no run asks yet: measured there), its bridges between
+   sheets that nearly touch are cut where that lowers the repaired mesh's genus
+   (:mod:`pcgeom.maps.bridges`).
 
 :func:`mesh_cloud` is the whole step as a run takes it: outliers flagged, the surface test,
 normals estimated and oriented when the cloud has none (:mod:`pcgeom.maps.normals`), the mesh,
@@ -33,6 +37,7 @@ from ..mesh import RIM_ANGLE, edge_sides, face_keys, main_part, opposite_corners
 from ..neighbours import (Neighbours, adaptive_pca, find_outliers, local_pca, scale_ladder,
                           surface_variation)
 from ..progress import Progress
+from .bridges import cut_bridges
 from .normals import orient_normals
 from .topology import PLANAR_CLOSED, SPACING_NEIGHBOURS, Topology, repair, require_open
 
@@ -272,8 +277,8 @@ def _submesh(X: np.ndarray, faces: np.ndarray, keep: np.ndarray
 
 def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
                exclude: np.ndarray | None = None, progress: bool = False,
-               knn: Neighbours | None = None) -> LocalMesh:
-    """Build the manifold mesh of same-sheet tangent fans (steps 1-3 of the module).
+               knn: Neighbours | None = None, bridges: bool = False) -> LocalMesh:
+    """Build the manifold mesh of same-sheet tangent fans (steps 1-4 of the module).
 
     Parameters
     ----------
@@ -290,6 +295,10 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     knn : Neighbours, optional
         The nearest points of the points not excluded, among themselves (rows as in
         ``X[~exclude]``), when already found.
+    bridges : bool
+        Cut the bridges between sheets where that lowers the repaired mesh's genus
+        (:func:`pcgeom.maps.bridges.cut_bridges`). Off in every run: measured in
+        :mod:`pcgeom.maps.bridges`, it helps some samplings of the lips sheet and costs others.
 
     Returns
     -------
@@ -305,7 +314,11 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     if knn is not None and knn.k >= SPACING_NEIGHBOURS:
         spacing = np.zeros(n)
         spacing[kept] = knn.first(SPACING_NEIGHBOURS)[0][:, 1:].mean(axis=1)
-    faces, topology = repair(X, normals, faces, exclude=exclude, spacing=spacing)
+    if bridges:
+        faces, topology = cut_bridges(X, normals, faces, repair, exclude=exclude,
+                                      spacing=spacing)
+    else:
+        faces, topology = repair(X, normals, faces, exclude=exclude, spacing=spacing)
     main = main_part(faces, n)
     boundary = int(edge_sides(faces)[1].sum())
     return LocalMesh(faces=faces, main=main, boundary_edges=boundary, candidates=n_candidates,

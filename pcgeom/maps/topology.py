@@ -111,7 +111,8 @@ class Topology:
     yet: cutting them made the holes of tests/test_maps_domain.py's sheets 20-45% too
     large)."""
     bridges_cut: int
-    """Triangles cut as bridges between sheets (none yet: handles are counted in the genus)."""
+    """Triangles cut as bridges between sheets before the repair (:mod:`pcgeom.maps.bridges`;
+    the ``_before`` figures are of the mesh after that cut)."""
     euler_before: int
     boundary_loops_before: int
     genus_before: int

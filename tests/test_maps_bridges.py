@@ -1,0 +1,50 @@
+"""Bridges between sheets that nearly touch (pcgeom.maps.bridges): which triangles are
+candidates, and the local mesh of the lips sheet with its normals cut of them."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pcgeom.cloud import normalize
+from pcgeom.maps.localmesh import local_mesh
+from pcgeom.maps.bridges import bridge_candidates, cut_bridges
+from pcgeom.maps.topology import repair
+from pcgeom.synthetic_sheets import lips_sheet
+
+
+def test_a_triangle_joining_opposite_sheets_is_a_candidate():
+    """Two walls 0.75 apart whose normals face each other (as the lips'): the triangle with
+    corners on both is a candidate, the triangles of one wall and of a plane are not."""
+    N = np.array([[1.0, 0, 0], [1.0, 0, 0], [-1.0, 0, 0], [1.0, 0, 0],
+                  [0, 0, 1.0], [0, 0.6, 0.8], [0, -0.6, 0.8]])
+    F = np.array([[0, 1, 2], [0, 1, 3], [4, 5, 6]])
+    assert bridge_candidates(N, F).tolist() == [True, False, False]
+    assert bridge_candidates(N, F[:0]).shape == (0,)
+
+
+def test_nothing_is_cut_without_a_handle():
+    """A mesh whose repair leaves no handle keeps its candidates (the pleats' tight folds
+    turn by more than a right angle within a triangle)."""
+    N = np.array([[1.0, 0, 0], [1.0, 0, 0], [-1.0, 0, 0]])
+    X = np.array([[0.0, 0, 0], [0, 1.0, 0], [0.75, 0.5, 0]])
+    F = np.array([[0, 1, 2]])
+    faces, topology = cut_bridges(X, N, F, repair)
+    assert topology.genus == 0 and topology.bridges_cut == 0
+    assert np.array_equal(faces, repair(X, N, F)[0])
+
+
+def test_the_lips_sheets_bridges_are_cut_with_its_normals():
+    """The lips sheet (walls 0.75 spacings apart) with its true normals: its repaired local
+    mesh has a handle; cut of its bridges (on request) it has fewer, few triangles joining
+    opposite sheets are left, and the topology says how many went."""
+    s = lips_sheet(3000, gap=0.75)
+    Xn, _, _ = normalize(s.points)
+    today = local_mesh(Xn, s.normals, 24)
+    cut = local_mesh(Xn, s.normals, 24, bridges=True)
+    assert today.topology.bridges_cut == 0 and today.topology.genus >= 1
+    assert bridge_candidates(s.normals, today.faces).any()
+    assert cut.topology.bridges_cut > 0
+    assert cut.topology.genus < today.topology.genus
+    # (the repair's fills may join opposite normals again, a few)
+    left = bridge_candidates(s.normals, cut.faces).sum()
+    assert left < 0.2 * bridge_candidates(s.normals, today.faces).sum()
