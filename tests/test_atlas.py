@@ -225,9 +225,15 @@ def test_cli_evaluate_cut_map(tmp_path, capsys, torus_file):
     assert cli.main(["evaluate", str(torus_file), str(out), "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["flipped"] == 0 and rep["charts"] == 1 and rep["seam_crossed"] > 0
-    assert_cli_fails(capsys, ["evaluate", str(torus_file), str(out), "--plot",
-                              str(tmp_path / "a.png")],
-                     "--plot is not built for a cut map (--cut auto) yet")
+    # --plot: the atlas, charts coloured, seams on the surface; param --plot draws the same.
+    assert cli.main(["evaluate", str(torus_file), str(out), "--plot",
+                     str(tmp_path / "a.png"), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["plots"]["atlas"] == str(tmp_path / "a.png")
+    assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert cli.main(["param", str(torus_file), "--cut", "auto", "--out", str(out), "--quiet",
+                     "--plot", str(tmp_path / "p.png")]) == 0
+    assert (tmp_path / "p.png").stat().st_size > 10000
 
 
 def test_more_roots_never_longer():
@@ -307,3 +313,17 @@ def test_finger_gets_seams_within_the_bound():
     assert rep["seam_crossed_percent"] < 2.0
     base = same_seams_lscm(s.points, s.faces, r)
     assert rep["mean_abs_angle_rad"] <= 1.5 * base["mean_abs_angle_rad"]
+
+
+def test_atlas_figure_parts(torus_map):
+    """The figure's cut mesh: one chart on the torus, its seams the atlas's boundary (each
+    seam edge on two sides), no rim on a closed surface."""
+    from pcgeom.apps.plot_atlas import cut_mesh, seam_edges
+
+    origin, U, Fc, chart = cut_mesh(torus_map.mesh_faces, torus_map.corner_uv)
+    assert (chart == 0).all() and len(U) == len(origin) > len(np.unique(torus_map.mesh_faces))
+    seams = seam_edges(torus_map.mesh_faces, Fc, origin)
+    assert len(seams) == len(boundary_loops(Fc)[0])
+    pairs = np.sort(origin[seams], axis=1)
+    _, counts = np.unique(pairs, axis=0, return_counts=True)
+    assert (counts == 2).all()  # each seam edge of the surface: once per side

@@ -159,12 +159,21 @@ def run(args) -> int:
 
 def _run_cut(args, mesh, result) -> int:
     """``evaluate`` of a cut map (``--cut auto``): the true triangles inside charts, those a
-    seam crosses, the scale factor's spread, seams, overlap (no baselines, no figures)."""
+    seam crosses, the scale factor's spread, seams, overlap (no baselines); ``--plot``: the
+    atlas figure (a PNG, or ``atlas.png`` in a directory)."""
     from ..maps.atlas_eval import cut_map_report
 
-    if args.plot:
-        raise InputError("--plot is not built for a cut map (--cut auto) yet")
     report = cut_map_report(mesh.points, mesh.faces, result)
+    if args.plot:
+        from ..apps.plot_atlas import plot_atlas
+
+        target, single = _plot_target(args.plot)
+        if not single:
+            target.mkdir(exist_ok=True)
+            target = target / "atlas.png"
+        plot_atlas(mesh.points, result.mesh_faces, result.corner_uv, target,
+                   title=f"{Path(args.map).name} on {Path(args.mesh).name}")
+        report["plots"] = {"atlas": os.fspath(target)}
     if args.json:
         print(json.dumps({"command": "evaluate", "mesh": args.mesh, "map": args.map,
                           "domain": "atlas", "preset": result.preset, "seed": result.seed,
@@ -180,6 +189,8 @@ def _run_cut(args, mesh, result) -> int:
     print(f"scale-factor spread (95th / 5th percentile): {report['stretch']:.2f}; seam length "
           f"{report['seam_length']:.2f} x sqrt(area); overlap {report['overlap']:.2g} of the "
           "charts' area")
+    if args.plot:
+        print(f"figure: {report['plots']['atlas']}")
     return EXIT_OK
 
 

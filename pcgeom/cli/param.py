@@ -253,7 +253,12 @@ def run(args) -> int:
                   else np.column_stack([result.uv, np.zeros(len(result.uv))]))  # z = 0
         write_ply_atomic(outs["out_ply"], mapped, faces)
     mesh = _write_mesh(args, outs, cloud, result)
-    if outs["plot"] is not None:
+    if outs["plot"] is not None and result.corner_uv is not None:  # an atlas
+        from ..apps.plot_atlas import plot_atlas
+
+        plot_atlas(cloud.points, result.mesh_faces, result.corner_uv, outs["plot"],
+                   title=f"{name}: --cut auto, {args.preset}")
+    elif outs["plot"] is not None:
         from ..apps.plot import plot_map, plot_sphere
 
         title = f"{name}: {domain.label}, {args.preset} (colour: lambda_inv)"

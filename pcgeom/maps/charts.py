@@ -15,7 +15,8 @@ takes the whole mesh as one piece and, recursively:
    shortest path from its boundary to the vertex whose scale factor is farthest from the
    median (in log: the tip of a finger the conformal map shrinks), then is mapped again (the
    cone-and-cut idea of OptCuts and Boundary First Flattening, with the cut ending at the
-   worst point). A chart that folds or overlaps itself, or whose slits are spent, is **split**
+   worst point), kept when it divides the spread by :data:`SLIT_GAIN`. A chart that folds or
+   overlaps itself, or whose slits are spent or do not pay, is **split**
    in two (up to :data:`DEPTH` times): triangles nearer one of two far vertices (distance
    along the mesh) than the other, each part's connected pieces mapped from step 1.
 
@@ -44,6 +45,14 @@ __all__ = ["Piece", "Chart", "fit_charts", "pack_charts", "spread", "charts_over
 
 SLITS = 6
 """Slits a chart over the bound gets before it is split instead."""
+
+SMOOTH = 3
+"""Rounds of majority smoothing of a split's two sides."""
+
+SLIT_GAIN = 1.25
+"""A slit is kept when it divides the chart's spread by at least this much (or leaves a chart
+that overlaps, which is then split); otherwise the chart before it is split instead (a slit to the shrunk tip of a finger divides it by
+hundreds; on a long chart with no tip, slits hardly change it)."""
 
 DEPTH = 6
 """Times a chart is split in two at most (up to 64 charts)."""
@@ -183,29 +192,45 @@ def _slit(V: np.ndarray, chart: Chart) -> Piece | None:
 
 
 def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
-    """``piece`` in two: the triangles nearer (along the mesh) one of two far vertices than
-    the other; the connected parts of each."""
+    """``piece`` in two, across its shortest cut among level sets of ``d_a - d_b`` (``d``:
+    distance along the mesh from two far vertices ``a`` and ``b``; levels at the 25th to
+    75th percentiles over the triangles), its triangles' sides then smoothed (each takes the
+    side of most of itself and its neighbours, :data:`SMOOTH` rounds: a cut along triangle
+    sides zigzags); the connected parts of each side."""
+    from ..mesh import half_edges
+
     P, F = V[piece.origin], piece.F
     E, G = _graph(P, F)
     a = int(np.argmax(dijkstra(G, indices=0)))
     da = dijkstra(G, indices=a)
     b = int(np.argmax(da))
     db = dijkstra(G, indices=b)
-    side = (da[F].mean(axis=1) < db[F].mean(axis=1))
-    if side.all() or not side.any():
-        side = np.arange(len(F)) < len(F) // 2
-    n = len(P)
-    # Cut the edges whose two triangles lie on different sides.
-    from ..mesh import half_edges
-
+    level = (da - db)[F].mean(axis=1)
+    n, m = len(P), len(F)
     he = half_edges(F)
-    m = len(F)
     k = np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
     eid = np.searchsorted(E[:, 0] * n + E[:, 1], k)
-    lab = side[np.arange(3 * m) % m].astype(np.int64)
-    s0 = np.bincount(eid, lab, minlength=len(E))
-    cnt = np.bincount(eid, minlength=len(E))
-    cut = (s0 > 0) & (s0 < cnt)
+    tri = np.arange(3 * m) % m
+    order = np.argsort(eid, kind="stable")
+    se = eid[order]
+    twin = np.flatnonzero(se[1:] == se[:-1])
+    f1, f2, inner = tri[order][twin], tri[order][twin + 1], se[twin]
+    length = np.linalg.norm(P[E[inner, 0]] - P[E[inner, 1]], axis=1)
+    A = sp.coo_matrix((np.ones(2 * len(f1)), (np.r_[f1, f2], np.r_[f2, f1])), shape=(m, m)
+                      ).tocsr() + sp.identity(m, format="csr")
+    best = None
+    for q in np.quantile(level, np.linspace(0.25, 0.75, 11)):
+        side = level < q
+        for _ in range(SMOOTH):
+            side = (A @ side.astype(np.float64)) * 2 > A.sum(axis=1).A1
+        if side.all() or not side.any():
+            continue
+        cost = float(length[side[f1] != side[f2]].sum())
+        if best is None or cost < best[0]:
+            best = (cost, side)
+    side = best[1] if best is not None else np.arange(m) < m // 2
+    cut = np.zeros(len(E), dtype=bool)
+    cut[inner[side[f1] != side[f2]]] = True
     return _parts(piece, cut, E)
 
 
@@ -257,22 +282,28 @@ def fit_charts(V: np.ndarray, F: np.ndarray, max_stretch: float, *, roots: int =
     whole = Piece(np.arange(len(F)), np.asarray(F, dtype=np.int64),
                   np.arange(len(V), dtype=np.int64))
     out: list[Chart] = []
-    work = [(p, 0, 0) for p in _parts(whole)]
+    # (piece, splits above it, slits in it, the chart before its last slit)
+    work = [(p, 0, 0, None) for p in _parts(whole)]
     while work:
-        piece, level, cuts = work.pop()
+        piece, level, cuts, before = work.pop()
         chart = _map(V, _disk(V, piece, roots, tally), cuts)
         ok = chart.info["ok"]
+        if before is not None and ok and chart.info["spread"] * SLIT_GAIN \
+                > before.info["spread"]:
+            # The slit did not pay: the chart before it is split instead.
+            tally["slits"] -= 1
+            chart, ok, cuts = before, True, slits
         if ok and chart.info["spread"] <= max_stretch:
             out.append(chart)
             continue
         if ok and cuts < slits:
             slit = _slit(V, chart)
             if slit is not None:
-                work.append((slit, level, cuts + 1))
+                work.append((slit, level, cuts + 1, chart))
                 tally["slits"] += 1
                 continue
-        if level < depth and len(piece.F) > 1:
-            work.extend((p, level + 1, 0) for p in _split(V, piece))
+        if level < depth and len(chart.F) > 1:
+            work.extend((p, level + 1, 0, None) for p in _split(V, chart))
             tally["splits"] += 1
             continue
         if not ok:
