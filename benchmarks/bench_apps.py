@@ -41,6 +41,9 @@ STRAY_SHARE = 0.01
 STRAY_DEPTH = 0.5
 """Their depth noise (Gaussian along the clean mesh's vertex normals), in mean edge lengths."""
 
+STRAY_KINDS = ("box", "near", "none")
+"""The stray models of :func:`stray_cloud` (``none``: the depth noise alone)."""
+
 SLIVER_DEG = 10.0
 """A triangle with an angle under this many degrees is a sliver."""
 
@@ -263,7 +266,8 @@ def stray_cloud(V, F, kind: str, seed: int) -> tuple[np.ndarray, float]:
     :data:`STRAY_SHARE` strays: ``box``, uniform in the bounding box enlarged by a fifth, at
     least 4 edge lengths off the surface (as :func:`pcgeom.synthetic.holey_heightfield`);
     ``near``, a surface point moved 3 to 20 edge lengths along its normal, either way (a
-    scanner's mixed pixels). Returns the cloud (surface points first) and the edge length."""
+    scanner's mixed pixels); ``none``, the depth noise alone. Returns the cloud (surface
+    points first) and the edge length."""
     from scipy.spatial import cKDTree
 
     rng = np.random.default_rng(seed)
@@ -271,8 +275,10 @@ def stray_cloud(V, F, kind: str, seed: int) -> tuple[np.ndarray, float]:
     spacing = float(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1).mean())
     N = H.mesh_normals(V, F)
     noisy = V + N * rng.normal(scale=STRAY_DEPTH * spacing, size=(len(V), 1))
-    n = round(STRAY_SHARE * len(V))
-    if kind == "box":
+    n = round(STRAY_SHARE * len(V)) if kind != "none" else 0
+    if kind == "none":
+        strays = np.zeros((0, 3))
+    elif kind == "box":
         low, high = V.min(axis=0), V.max(axis=0)
         margin, tree, strays = 0.2 * (high - low), cKDTree(V), np.zeros((0, 3))
         while len(strays) < n:
@@ -335,7 +341,7 @@ def strays_rows(args) -> list[dict]:
     for name in args.strays:
         s = H.load_surface(name)
         diag = float(np.linalg.norm(s.V.max(axis=0) - s.V.min(axis=0)))
-        for kind in ("box", "near"):
+        for kind in STRAY_KINDS:
             for seed in args.seeds:
                 P, spacing = stray_cloud(s.V, s.F, kind, seed)
                 src = args.work / f"{name}_strays_{kind}_{seed}.xyz"
@@ -404,7 +410,7 @@ def render_strays(rows: list[dict], argv, meta: dict) -> str:
         f"lengths (Gaussian along the clean mesh's vertex normals) and {STRAY_SHARE:.0%} "
         "strays: *box*, uniform in the bounding box enlarged by a fifth, at least 4 edge "
         "lengths off the surface; *near*, surface points moved 3 to 20 edge lengths along "
-        "their normals (seeds as listed, medians over them)",
+        "their normals; *none*, the depth noise alone (seeds as listed, medians over them)",
         "- pcgeom: `pcgeom reconstruct CLOUD --out MESH` with its defaults (preset fast, "
         "`--denoise auto`, as many target vertices as the default 5000), a subprocess timed from "
         "outside; *before*: the same command on the tree given as `--baseline`, in the same run",

@@ -173,8 +173,8 @@ holes are removed; every other candidate region (gaps of the sampling, loops und
 ``min_loop``) is spanned by its triangles again and listed apart (``BoundaryLoops.gaps``).
 Measured on the shared surfaces' ``fast`` maps (true holes found / loops marked hole that
 are not holes): peaks_7holes_choi 7/7 and 0 (before 2 of 7 seen), face_3holes_small_choi 3/3
-and 0, face_human_choi with normals 0 false (before 4), bare 2 (before 21), peaks_three_cgal
-bare 0 (before 1). ``kinds=False`` keeps every loop of the rule, as before.
+and 0, face_human_choi 0 false with normals and bare (before 4 and 21), peaks_three_cgal
+bare 0 (before 1), with normals 1. ``kinds=False`` keeps every loop of the rule, as before.
 
 Where loops touch (a non-manifold vertex)
 -----------------------------------------
