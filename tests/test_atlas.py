@@ -327,3 +327,15 @@ def test_atlas_figure_parts(torus_map):
     pairs = np.sort(origin[seams], axis=1)
     _, counts = np.unique(pairs, axis=0, return_counts=True)
     assert (counts == 2).all()  # each seam edge of the surface: once per side
+
+
+@pytest.mark.parametrize("command", ["reconstruct", "boundary"])
+def test_cut_map_refused_by_reconstruct_and_boundary(tmp_path, capsys, torus_file, torus_map,
+                                                     command):
+    """A cut map's point uv jump across seams: reconstruct and boundary refuse it in one line
+    (before any output) and name what writes its mesh with the atlas."""
+    path = torus_map.save(tmp_path / "t.npz")
+    out = tmp_path / ("m.ply" if command == "reconstruct" else "b.json")
+    assert_cli_fails(capsys, [command, str(torus_file), "--map", str(path), "--out", str(out)],
+                     "is a cut map (--cut auto); ")
+    assert not out.exists()

@@ -153,7 +153,7 @@ def load_free_map(args, points, purpose: str, domain=None, hint: str = "",
     ------
     InputError
         Anything ``ParamResult.load`` refuses, a map of another cloud with as many points
-        (fingerprint), a map trained onto a bounded domain (``purpose`` needs a free one;
+        (fingerprint), a cut map (``--cut auto``: seams), a map trained onto a bounded domain (``purpose`` needs a free one;
         ``hint`` ends the message), or, with ``domain``, a map onto another domain or a free
         map.
     """
@@ -164,6 +164,10 @@ def load_free_map(args, points, purpose: str, domain=None, hint: str = "",
     if result.fingerprint is not None and result.fingerprint != fingerprint(points):
         raise InputError(f"{args.map}: was made from another cloud than {args.input} "
                          "(same number of points, different coordinates)")
+    if result.corner_uv is not None:  # an atlas: its points' uv jump across the seams
+        raise InputError(f"{args.map}: is a cut map (--cut auto); {purpose} needs one chart "
+                         "without seams (pcgeom param without --cut); the cut map's own mesh "
+                         "with its atlas: pcgeom param --cut auto --out-mesh MESH.obj")
     trained = result.domain if result.domain is not None and result.domain.bounded else None
     if domain is not None and domain.bounded:
         if trained is None:
