@@ -398,10 +398,11 @@ def test_landmarks_pull_their_points_to_the_target(disk_run, peaks):
                 "batch_points", "batch_domain", "seconds"} <= set(record)
 
 
-def test_landmarks_need_a_domain(peaks):
+def test_landmarks_on_the_free_boundary_need_the_local_mesh_map(peaks):
     V, _ = peaks
     mask, target = _landmark_pair(V)
-    with pytest.raises(ValueError, match="landmarks need a parameter domain"):
+    with pytest.raises(ValueError, match="landmarks on the free boundary are built for the "
+                                         "local-mesh map only"):
         parametrize(V, "free", config=_tiny(), landmarks=[(V[mask], target)], progress=False)
 
 

@@ -19,7 +19,7 @@ import torch
 from ..apps.evaluate import map_report
 from ..apps.reconstruct import check_mesh_path, texture_paths, write_mesh
 from ..apps.texture import map_mesh, uv_scaling
-from ..config import PRESETS, get_preset, with_denoise
+from ..config import PRESETS, get_preset, with_denoise, with_landmark_weight
 from ..domains import DOMAINS, PolygonDomain, get_domain
 from ..errors import InputError
 from ..examples import EXAMPLES, load_example
@@ -103,7 +103,11 @@ def configure(p: argparse.ArgumentParser) -> None:
                         f"into charts packed by xatlas (default: {MAX_STRETCH:g})")
     p.add_argument("--landmarks", metavar="FILE.json",
                    help="landmark pairs: points of the input (indices or 3D points) and their "
-                        "targets in the domain (points or polylines); needs a domain")
+                        "targets in the domain (points or polylines); onto the free boundary "
+                        "(--preset fast) the landmark points are pinned on their targets")
+    p.add_argument("--landmark-weight", metavar="W", type=float, default=None,
+                   help="on the free boundary: pull the landmark points toward their targets "
+                        "with this weight instead of pinning them (0: pinned, the default)")
     p.add_argument("--normals", choices=NORMALS_CHOICES, default="auto",
                    help="auto: use the file's oriented normals (PLY nx ny nz, NPZ 'normals', "
                         "six-column XYZ, LAS) when it has them; ignore: do not read them "
@@ -219,7 +223,8 @@ def run(args) -> int:
     """Run ``pcgeom param`` on parsed arguments; returns the exit status."""
     # Everything that can be wrong with the request is checked here, before training.
     domain = get_domain(args.domain)
-    config = with_denoise(get_preset(args.preset), args.denoise)
+    config = with_landmark_weight(with_denoise(get_preset(args.preset), args.denoise),
+                                  args.landmark_weight)
     choose_map(domain, config, args.landmarks is not None)  # a request no map is built for
     max_stretch = check_cut(args.cut, args.max_stretch, domain.name)
     if args.cut == "auto" and args.landmarks is not None:
@@ -233,9 +238,6 @@ def run(args) -> int:
     points, faces, normals, name = cloud.points, cloud.faces, cloud.normals, cloud.source
     landmarks = []
     if args.landmarks is not None:
-        if not domain.bounded:
-            raise InputError("--landmarks needs a parameter domain; add --domain disk "
-                             "(or another domain)")
         landmarks = [(points[pair.indices], pair.targets)
                      for pair in read_landmarks(args.landmarks, points)]
     outs = _check_outputs(args, default_out, domain)

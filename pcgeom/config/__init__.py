@@ -21,6 +21,7 @@ from .barrier import (ENERGIES, LANDMARKS_INJECTIVE, SOLVERS, STARTS, BarrierCon
                       InjectiveConfig, PullConfig, UntangleConfig)
 
 __all__ = [
+    "with_landmark_weight",
     "NetConfig",
     "ScheduleConfig",
     "OptimizerConfig",
@@ -332,8 +333,16 @@ class LocalMeshConfig:
     :attr:`ParamConfig.injective`), no refinement, unless a domain hole gets no hole of the
     cloud (then as ``"harmonic"``). ``"harmonic"``: the harmonic layout with holes on holes
     (:func:`pcgeom.maps.domain.harmonic_onto`), then :attr:`domain_refine`, which may fold."""
+    free_landmark_weight: float = 0.0
+    """Landmarks on the free boundary (:func:`pcgeom.maps.free_landmarks.pinned_free`): 0
+    pins each landmark vertex on its target (LSCM with pinned vertices, as libigl's
+    ``lscm(V, F, b, bc)``); a weight ``w > 0`` pulls them instead, ``w`` times the mean
+    cotangent weight per pair beside LSCM's energy (``--landmark-weight``). Pins that would
+    turn triangles over are pulled, with a warning."""
 
     def __post_init__(self) -> None:
+        _positive("LocalMeshConfig", "free_landmark_weight", self.free_landmark_weight,
+                  allow_zero=True)
         if self.domain_method not in DOMAIN_METHODS:
             raise InputError(f"LocalMeshConfig.domain_method: expected one of "
                              f"{', '.join(DOMAIN_METHODS)}, got {self.domain_method!r}")
@@ -666,6 +675,15 @@ def denoise_config(value, base: DenoiseConfig | None = None) -> DenoiseConfig:
     if isinstance(value, bool) or not (math.isfinite(width) and width > 0):
         raise InputError(f"denoise: expected {DENOISE_OPTION}, got {value!r}")
     return dataclasses.replace(base, mode="on", width=width, width_per_noise=0.0)
+
+
+def with_landmark_weight(config: ParamConfig, value=None) -> ParamConfig:
+    """``config`` with ``--landmark-weight VALUE`` (:attr:`LocalMeshConfig.free_landmark_weight`);
+    None keeps it as it is."""
+    if value is None:
+        return config
+    return dataclasses.replace(config, local_mesh=dataclasses.replace(
+        config.local_mesh, free_landmark_weight=float(value)))
 
 
 def with_denoise(config: ParamConfig, value=None) -> ParamConfig:

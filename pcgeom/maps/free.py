@@ -389,8 +389,8 @@ def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, *, outlier: np
 
 def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
              device: torch.device, dtype: torch.dtype, seed: int,
-             progress: bool, outlier: np.ndarray | None = None, start: tuple | None = None
-             ) -> tuple[np.ndarray, np.ndarray, dict]:
+             progress: bool, outlier: np.ndarray | None = None, start: tuple | None = None,
+             landmarks=()) -> tuple[np.ndarray, np.ndarray, dict]:
     """The free-boundary map of a run: LSCM of the local mesh, optionally refined.
 
     Parameters
@@ -403,6 +403,10 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
     start : tuple, optional
         :func:`free_start`'s result when the run has it already (then ``normals`` and
         ``outlier`` are not used).
+    landmarks : sequence of ((n_k,) int, (m_k, 2) float64)
+        Rows of ``Xn`` of each landmark set and its targets: the map is
+        :func:`pcgeom.maps.free_landmarks.pinned_free` (pinned, or pulled with
+        ``local_mesh.free_landmark_weight``), in the targets' frame, and not refined.
 
     Returns
     -------
@@ -425,8 +429,15 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
     t0 = time.perf_counter()
     settings = config.local_mesh
     uv, mesh, normals, record = start
+    if landmarks:
+        from ..metrics import hausdorff
+        from .free_landmarks import pinned_free
+
+        uv, record["free_landmarks"] = pinned_free(Xn, mesh, uv, landmarks,
+                                                   weight=settings.free_landmark_weight)
+        record["landmark_hausdorff"] = [hausdorff(uv[i], q) for i, q in landmarks]
     lam_inv = conformal_factor(Xn, uv)
-    if settings.refine_steps > 0:
+    if settings.refine_steps > 0 and not landmarks:
         gen = torch.Generator(device="cpu")
         gen.manual_seed(seed)
         torch.manual_seed(seed)

@@ -18,7 +18,10 @@ estimated normals have no preferred side), maps the surface onto ``Omega``:
 3. **The rotation.** Among :data:`ROTATIONS` rotations, mirrored or not, the one whose
    composed map stretches the local mesh's triangles most evenly: the smallest area-weighted
    variance of ``log(area in Omega / area in 3D)``; with landmarks, plus the Chamfer distance
-   of the mapped landmark points to their targets, over the domain's area.
+   of the mapped landmark points to their targets, over the domain's area; from there the
+   whole disk automorphism (turn, mirror and the point ``c`` sent to the centre) is fitted to
+   the landmarks by least squares (:func:`pcgeom.maps.moebius.fit_landmarks`; the targets are
+   carried into the disk by the domain's Riemann map, :meth:`DomainDisk.forward`).
 4. **The inverse.** Each point's image in the disk is located in the domain mesh's disk image
    (among the triangles of the nearest centroids) and takes the barycentric combination of that
    triangle's domain positions. Points just outside the polygon that approximates the circle
@@ -362,7 +365,7 @@ def _tri_areas(P: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 
 def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: Domain, *,
-                 landmarks=(), seed: int = 0) -> tuple[np.ndarray, dict]:
+                 landmarks=(), seed: int = 0, bend=None) -> tuple[np.ndarray, dict]:
     """Map the cloud onto a simply connected domain by composing its disk map with the
     domain's inverse Riemann map (steps 1-4 of the module).
 
@@ -377,8 +380,13 @@ def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: 
     domain : Domain
         Bounded, one boundary loop.
     landmarks : sequence of ((n_k,) int, (m_k, 2) float64)
-        Rows of ``X`` standing for each landmark set, and its targets: they help choose the
-        rotation.
+        Rows of ``X`` standing for each landmark set, and its targets: the disk automorphism
+        is fitted to them (:func:`pcgeom.maps.moebius.fit_landmarks`).
+    bend : callable, optional
+        With landmarks: ``bend(Z, to_disk)`` takes the fitted disk map ``Z`` (N, 2) and the
+        domain's Riemann map (domain points to disk points) and returns a map of the disk
+        and a record of what it did (``info["linear_bend"]``), composed with the inverse
+        Riemann map in place of ``Z``.
 
     Returns
     -------
@@ -467,11 +475,19 @@ def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: 
         # The corners moved the domain's map a little: fitted again on the moved one.
         fitted, fit_info = fit(dd, fitted, 3)
         theta, a, mirror = fitted.theta, fitted.c, fitted.mirror
-    U = image(theta, mirror, np.arange(len(X)), a)
+    if bend is None or not marks:
+        U = image(theta, mirror, np.arange(len(X)), a)
+        bent = None
+    else:
+        z = turn(z0, theta, mirror, a)
+        Z, bent = bend(np.column_stack([z.real, z.imag]), dd.forward)
+        U = dd.inverse(Z)
     info = {"rotation_deg": round(math.degrees(theta), 3), "mirror": mirror,
             "automorphism": [round(a.real, 6), round(a.imag, 6)],
             "domain_mesh_vertices": len(dd.V), "area_spread": round(spread, 4),
             "corners": len(dd.corners), "corner_move_deg": round(math.degrees(moved), 4)}
     if fitted is not None:
         info["moebius"] = fit_info
+    if bent is not None:
+        info["linear_bend"] = bent
     return U, info

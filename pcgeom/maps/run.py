@@ -94,10 +94,27 @@ def _landmark_tensors(landmarks, center, scale, device, dtype):
     return points, targets
 
 
+FREE_LANDMARKS = ("landmarks on the free boundary are built for the local-mesh map only: use "
+                  "--preset fast, or a parameter domain (--domain disk)")
+"""The message of the :class:`InputError` for landmarks on the free boundary with the
+networks."""
+
+
+def _nearest_rows(Xn: np.ndarray, points, targets) -> list:
+    """Each landmark set as the rows of ``Xn`` nearest its points, with its targets (NumPy)."""
+    if not points:
+        return []
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(Xn)
+    return [(tree.query(p.cpu().double().numpy())[1], q.cpu().double().numpy())
+            for p, q in zip(points, targets)]
+
+
 def choose_map(domain: Domain, config: ParamConfig, landmarks: bool) -> str:
     """Which map of :data:`MAPS` makes a run onto ``domain`` with ``config``.
 
-    The free boundary: ``config.free_map``. A disk without landmarks: ``config.disk_map``
+    The free boundary: ``config.free_map`` (with landmarks: ``"localmesh"`` only). A disk without landmarks: ``config.disk_map``
     (laid and refined when ``local_mesh.disk_refine``). Any other bounded domain, and any
     domain with landmarks: ``config.domain_map``. The sphere: ``"sphere"``.
 
@@ -105,7 +122,8 @@ def choose_map(domain: Domain, config: ParamConfig, landmarks: bool) -> str:
     ------
     InputError
         The sphere with landmarks, or with a config whose maps are the networks (the
-        ``networks`` and ``paper`` presets): neither is built for it.
+        ``networks`` and ``paper`` presets): neither is built for it; landmarks on the free
+        boundary with the networks.
     """
     if domain.closed:
         if landmarks:
@@ -114,6 +132,8 @@ def choose_map(domain: Domain, config: ParamConfig, landmarks: bool) -> str:
             raise InputError(SPHERE_NETWORKS)
         return "sphere"
     if not domain.bounded:
+        if landmarks and config.free_map != "localmesh":
+            raise InputError(FREE_LANDMARKS)
         return "free" if config.free_map == "localmesh" else "networks"
     if isinstance(domain, Disk) and not landmarks:
         if config.disk_map != "localmesh":
@@ -243,8 +263,6 @@ def parametrize(
     state = load_checkpoint(ckpt, identity) if ckpt is not None and resume and ckpt.exists() \
         else None
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
-    if lm_points and not domain.bounded:
-        raise InputError("landmarks need a parameter domain; use --domain disk (or another domain)")
     log(f"{len(P)} points onto {domain.label}: the {kind} map", enabled=progress)
     Xn, denoised, outlier = _denoise(Xn, normals, config, lm_points)
     # The record in input units; it is the run's first stage when it moved the points.
@@ -287,7 +305,8 @@ def parametrize(
                            onto=domain.label)
     if kind == "free":
         uv, lam_inv, record = free_map(Xn, normals, config, device=dev, dtype=dtype, seed=seed,
-                                       progress=progress, start=start)
+                                       progress=progress, start=start,
+                                       landmarks=_nearest_rows(Xn, lm_points, lm_targets))
         report(record, uv)
         return result(uv, lam_inv, [record], start[1])
     if kind == "atlas":

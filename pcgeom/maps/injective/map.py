@@ -185,7 +185,11 @@ def injective_map(V, F, U0, loops, rings, *, landmarks=(),
         U, info = _descend(V, F, layout, config.barrier, reference, outside=outside,
                            cover=cover)
     else:
-        rounds = max(1, config.barrier.landmark_rounds)
+        # Pairs of one point and one target never change: one round, every step in it
+        # (14k points of the three peaks, four such landmarks: 188 steps in five rounds,
+        # 145 s; 30 in one, 17 s, the same angle error to 0.3%).
+        single = all(len(i) == 1 and len(q) == 1 for i, q in marks)
+        rounds = 1 if single else max(1, config.barrier.landmark_rounds)
         per_round = dataclasses.replace(config.barrier,
                                         iterations=max(1, config.barrier.iterations // rounds))
         iterations = 0
