@@ -123,3 +123,26 @@ def test_small_false_loops_are_remeshed_and_the_hole_kept(n, sampling):
     assert (record["boundary_loops"], record["genus"]) == (2, 0), record["topology"]
     assert record["topology"]["holes_filled"] >= 3
     assert angle_distortion(sheet.points, sheet.faces, result.uv).mean_abs < 1e-3
+
+
+def test_an_ear_into_a_small_loop_goes_and_the_loop_is_filled_flat():
+    """A flat 5 x 5 grid whose centre keeps one of its six triangles: an ear poking into the
+    hole round it (two consecutive edges of the loop), whose region reaches the rim, so no
+    re-mesh of it. The ear goes, the hexagon is filled flat (every triangle facing +z), and
+    the mesh has the rim alone; the centre point is left out."""
+    from pcgeom.maps.fills import refill_small_loops
+
+    a, b = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+    p = (a * 5 + b).ravel()
+    F = np.concatenate([np.stack([p, p + 5, p + 1], 1), np.stack([p + 1, p + 5, p + 6], 1)])
+    X = np.column_stack([np.repeat(np.arange(5.0), 5), np.tile(np.arange(5.0), 5), np.zeros(25)])
+    star = np.flatnonzero((F == 12).any(axis=1))
+    F = np.delete(F, star[1:], axis=0)
+    assert measure(F)["boundary_loops"] == 2
+    normals = np.tile([0.0, 0.0, 1.0], (25, 1))
+    G, closed = refill_small_loops(X, normals, F, np.ones(25), 10.0)
+    got = measure(G)
+    assert closed == 1 and (got["boundary_loops"], got["genus"], got["euler"]) == (1, 0, 1), got
+    assert not (G == 12).any()
+    face = np.cross(X[G[:, 1]] - X[G[:, 0]], X[G[:, 2]] - X[G[:, 0]])
+    assert (face[:, 2] > 0).all()
