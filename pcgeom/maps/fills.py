@@ -14,13 +14,13 @@ Delaunay triangles of the plane of its normals (:func:`pcgeom.maps.topology.fill
 The re-mesh is kept only when it is flat (each triangle faces its corners' normals, the
 region's rim is one simple loop of the mesh's own edges, no edge gains a third triangle),
 uses every point it freed, and no triangle of it is wider, nor leaves a wider empty circle,
-than the widest the sampling leaves (:func:`pcgeom.maps.topology.widest_empty`): a hole of the surface (wider than any empty
-circle of the sampling) stays open, and a patch that is not flat in any plane (a fold of the
-surface) keeps its mesh. A flat re-mesh of a neighbourhood is an embedding of it in its plane:
+than the widest the sampling leaves (:func:`pcgeom.maps.topology.widest_empty`): a hole of
+the surface (wider than any empty circle of the sampling) stays open, and a patch that is
+not flat in any plane (a fold of the surface) keeps its mesh. A flat re-mesh of a neighbourhood is an embedding of it in its plane:
 it turns no triangle of a map over.
 
 Where the neighbourhood is too curved for one plane (the shared peaks: its corners' normals
-up to 110 degrees apart over a ring), the loop is often held open by an ear: a triangle of the
+over 90 degrees apart over a ring), the loop is often held open by an ear: a triangle of the
 mesh that holds two consecutive edges of the loop, its tip poking into the hole, round which
 every fill folds. The ears go and the loop left gets the flat fill of the loop alone
 (:func:`_ear_fill`), under the same width bound and, as the true holes of peaks_7holes_choi
@@ -60,6 +60,13 @@ loops round holes of radius 2 spacings re-meshed leave empty circles of 1.7-2.3 
 spacings; the false loops' re-meshes 1.0-2.0. The 12 sheets kept 5 false loops and lost 5
 holes of radius 2 with 1.0 (and :data:`REFILL_LOOP` 1.0); 11 and 2 with 0.75 (and 0.8);
 without the re-mesh, 48 and 1."""
+
+REFILL_SHORT = 1.5
+"""... or no longer than a circle of this many local spacings, whatever the bound: on a
+regular sampling the bound is tight (peaks_three_cgal: 1.52, so :data:`REFILL_LOOP` alone
+takes loops up to 1.22) while its false loops run to 1.4. Measured: peaks_three_cgal 6 / 7
+loops (bare / file normals) -> 5 / 6; 2.0 closes no more; the 18 holed sheets (uniform,
+scan and grid, seeds 2-7), peaks_7holes_choi, face_human_choi and the pleats the same."""
 
 REFILL_TURN = 45.0
 """An ear's fill (:func:`_ear_fill`) is kept when each of its triangles is within this angle
@@ -136,7 +143,8 @@ def _faces_normals(X: np.ndarray, normals: np.ndarray, F: np.ndarray) -> bool:
     """Whether each triangle of ``F`` is within :data:`REFILL_TURN` of each corner's normal."""
     face = np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
     face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
-    return bool((np.einsum("md,mcd->mc", face, normals[F]) > np.cos(np.radians(REFILL_TURN))).all())
+    turn = np.einsum("md,mcd->mc", face, normals[F])  # (M, 3) cosines
+    return bool((turn > np.cos(np.radians(REFILL_TURN))).all())
 
 
 def _pinches(edges: np.ndarray) -> np.ndarray:
@@ -166,9 +174,9 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                        bound: float, exclude: np.ndarray | None = None
                        ) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with its small boundary loops (no longer than a circle of
-    :data:`REFILL_LOOP` times ``bound`` local spacings ``h``) closed by a flat re-mesh of
-    their neighbourhood, or by a flat fill once their ears go (the module's rules), and how
-    many loops that closed.
+    :data:`REFILL_LOOP` times ``bound``, or :data:`REFILL_SHORT`, local spacings ``h``)
+    closed by a flat re-mesh of their neighbourhood, or by a flat fill once their ears go
+    (the module's rules), and how many loops that closed.
 
     Parameters
     ----------
@@ -197,7 +205,8 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         small = []
         for w in walks:
             length = float(perimeter[w].sum())
-            if length <= 2.0 * np.pi * REFILL_LOOP * bound * float(np.median(h[rim[w, 0]])):
+            short = max(REFILL_LOOP * bound, REFILL_SHORT)
+            if length <= 2.0 * np.pi * short * float(np.median(h[rim[w, 0]])):
                 small.append((length, w))
         if not small:
             break
