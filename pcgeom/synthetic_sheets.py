@@ -4,7 +4,8 @@ with round holes of a few spacings.
 
 Both are images of a planar parameter domain, sampled there (uniform random points or a
 jittered grid, near-isometric maps so that the 3D density is nearly uniform) and
-triangulated there (Delaunay): the true mesh over the points, used only to evaluate.
+triangulated there (Delaunay; the lips sheet's then flipped to be Delaunay on the surface,
+where its parameters shear): the true mesh over the points, used only to evaluate.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from scipy.spatial import Delaunay
 
 from .errors import InputError
 
-__all__ = ["Sheet", "lips_sheet", "holed_sheet"]
+__all__ = ["Sheet", "lips_sheet", "holed_sheet", "CREASE_RADIUS"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,38 +38,61 @@ class Sheet:
     """Mean edge length of ``faces``."""
 
 
-def _fold(t: np.ndarray, s: np.ndarray, depth: float, gap: float, bulb: float
+def _fold_segments(depth: float, gap: float, bulb: float, crease: float
+                   ) -> list[tuple[float, float]]:
+    """The profile of a fold at scale 1, as pieces of constant curvature: (arc length, turn
+    in radians; negative: clockwise). From the flat (heading +x) a fillet of radius
+    ``crease`` turns down, a wall of length ``depth`` goes down, a fillet turns out, a bulb
+    of radius ``bulb`` turns back up the long way, a fillet turns in, the other wall (``gap``
+    from the first) goes up and a fillet turns onto the flat again. Every piece meets the
+    next with the same tangent (no crease) unless ``crease`` is 0: then the walls meet the
+    flat at right angles and the bulb at the circle through both walls' ends."""
+    if gap >= 2 * bulb:
+        raise InputError(f"lips_sheet: gap must be under the bulbs' diameter {2 * bulb}, "
+                         f"got {gap!r}")
+    # The bulb's fillets turn out by beta, the bulb back by pi + 2 beta, centred between
+    # the walls: (bulb + crease) cos(beta) = gap / 2 + crease.
+    beta = float(np.arccos((gap / 2 + crease) / (bulb + crease)))
+    quarter = np.pi / 2
+    return [(crease * quarter, -quarter), (depth, 0.0), (crease * beta, -beta),
+            (bulb * (np.pi + 2 * beta), np.pi + 2 * beta), (crease * beta, -beta),
+            (depth, 0.0), (crease * quarter, -quarter)]
+
+
+def _fold(t: np.ndarray, s: np.ndarray, segments: list[tuple[float, float]]
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """A fold into the sheet at arc length ``t`` along it, scaled by ``s`` (0: none): down a
-    wall of length ``depth s``, round a bulb (a circle of radius ``bulb s`` through both
-    walls' ends, the long way), up the other wall ``gap s`` away. Returns x, z offsets from
-    the fold's start and the unit tangent (tx, tz)."""
-    g, D, R = gap * s, depth * s, bulb * s
-    half = np.arcsin(np.clip(g / (2 * np.maximum(R, 1e-300)), 0, 1))
-    sweep = 2 * np.pi - 2 * half  # from wall 1's end the long way round to wall 2's
-    arc = R * sweep
-    x, z = np.zeros_like(t), np.zeros_like(t)
-    tx, tz = np.zeros_like(t), -np.ones_like(t)
-    down = t <= D
-    z[down] = -t[down]
-    bend = (t > D) & (t <= D + arc)
-    # Circle centre below the walls' ends; wall 1's end at angle pi/2 + half from it.
-    cz = -D - R * np.cos(half)
-    a0 = np.pi / 2 + half
-    phi = a0 + (t - D) / np.maximum(R, 1e-300)
-    x[bend] = (g / 2 + R * np.cos(phi))[bend]
-    z[bend] = (cz + R * np.sin(phi))[bend]
-    tx[bend], tz[bend] = -np.sin(phi)[bend], np.cos(phi)[bend]
-    up = t > D + arc
-    x[up] = g[up] if np.ndim(g) else g
-    z[up] = (-D + (t - D - arc))[up]
-    tx[up], tz[up] = 0.0, 1.0
-    return x, z, tx, tz
+    """The fold of :func:`_fold_segments` scaled by ``s`` (0: none) at arc length ``t``
+    along it: x, z offsets from the fold's start and the unit tangent (tx, tz), by arc
+    length (the sheet stays isometric to its parameters along u)."""
+    t = np.asarray(t, dtype=np.float64)
+    s = np.maximum(np.broadcast_to(np.asarray(s, dtype=np.float64), t.shape), 1e-300)
+    x, z, theta = np.zeros_like(t), np.zeros_like(t), np.zeros_like(t)
+    start = np.zeros_like(t)
+    for length, turn in segments:
+        ell = length * s
+        if length == 0.0:  # a crease: the tangent turns at once
+            theta = theta + np.where(t >= start, turn, 0.0)
+            continue
+        dt = np.clip(t - start, 0.0, ell)
+        after = theta + turn * dt / ell
+        if turn == 0.0:
+            x, z = x + dt * np.cos(theta), z + dt * np.sin(theta)
+        else:
+            radius = ell / turn
+            x = x + radius * (np.sin(after) - np.sin(theta))
+            z = z - radius * (np.cos(after) - np.cos(theta))
+        theta, start = after, start + ell
+    return x, z, np.cos(theta), np.sin(theta)
 
 
-def _fold_length(s: np.ndarray, depth: float, gap: float, bulb: float) -> np.ndarray:
-    half = np.arcsin(np.clip(gap / (2 * bulb), 0, 1))
-    return s * (2 * depth + bulb * (2 * np.pi - 2 * half))
+def _fold_length(s: np.ndarray, segments: list[tuple[float, float]]) -> np.ndarray:
+    return s * sum(length for length, _ in segments)
+
+
+def _fold_width(segments: list[tuple[float, float]]) -> float:
+    """How far along x the flat after the fold (at scale 1) is from its start."""
+    total = _fold_length(np.ones(1), segments)
+    return float(_fold(total, np.ones(1), segments)[0][0])
 
 
 def _smooth_step(x: np.ndarray) -> np.ndarray:
@@ -76,22 +100,37 @@ def _smooth_step(x: np.ndarray) -> np.ndarray:
     return x * x * (3 - 2 * x)
 
 
-def lips_sheet(n: int = 11000, *, gap: float = 0.75, sampling: str = "uniform",
-               seed: int = 0) -> Sheet:
+CREASE_RADIUS = 2.5
+"""The default radius of the lips' and nostrils' rounded edges (:func:`lips_sheet`), in
+the sheet's units (about a spacing at 11k points): real lips and nostrils are rounded over
+a few spacings of a scan."""
+
+
+def lips_sheet(n: int = 11000, *, gap: float = 0.75, crease_radius: float = CREASE_RADIUS,
+               sampling: str = "uniform", seed: int = 0) -> Sheet:
     """A sheet (an open surface, one boundary loop) with a mouth and two nostrils: folds into
-    it whose walls are ``gap`` spacings apart (the lips' and nostrils' sheets that nearly
-    touch, with opposite normals), closing smoothly at their ends.
+    it whose walls are ``gap`` apart (the lips' and nostrils' sheets that nearly touch, with
+    opposite normals), closing smoothly at their ends.
 
     The sheet is a curve in the xz-plane (arc length ``u``) extruded along y, folded at
-    two places along u: the nostrils (depth 3, bulb radius 1.5 spacings) over two stretches
-    of y, the mouth (depth 6, bulb 2) over a longer one; each fold scaled by a smooth step
-    in y over 12 (20) spacings, so that it opens from nothing. The parameters ``(u, y)`` are nearly
-    isometric; the true triangles are their Delaunay triangles.
+    two places along u: the nostrils (walls 3 deep, bulb radius 1.5) over two stretches of
+    y, the mouth (walls 6 deep, bulb 2) over a longer one. A fold goes down from the flat
+    round a fillet of radius ``crease_radius`` (the lips' rounded edge), down its wall, out
+    round a fillet, round the bulb, in round a fillet and up the other wall ``gap`` away,
+    round a fillet onto the flat: a smooth curve (``crease_radius=0``: right-angle creases
+    at the flat, and the bulb a circle through the walls' ends). Each fold is scaled by a
+    smooth step in y over 12 (20) units, so that it opens from nothing. The parameters
+    ``(u, y)`` are arc lengths: isometric where the fold's scale is constant, nearly so
+    elsewhere; the true triangles are their Delaunay triangles.
+
+    Sizes are in the sheet's units: the mean true edge length is 1.1 at 11000 points
+    (``spacing``), 2.1 at 3000.
 
     Parameters
     ----------
     n : about how many points.
-    gap : the walls' distance in spacings (the mean true edge length, about 1).
+    gap : the walls' distance (under 3, the nostrils' bulb diameter).
+    crease_radius : the radius of the folds' rounded edges (0: sharp creases).
     sampling : "uniform" (random) or "grid" (jittered).
     seed : seeds the sampling.
     """
@@ -99,11 +138,14 @@ def lips_sheet(n: int = 11000, *, gap: float = 0.75, sampling: str = "uniform",
         raise InputError(f"lips_sheet: unknown sampling {sampling!r}; expected uniform or grid")
     if not (np.isfinite(gap) and gap > 0):
         raise InputError(f"lips_sheet: gap must be a number > 0, got {gap!r}")
+    if not (np.isfinite(crease_radius) and crease_radius >= 0):
+        raise InputError(f"lips_sheet: crease_radius must be a number >= 0, got "
+                         f"{crease_radius!r}")
     rng = np.random.default_rng(seed)
-    h = 1.0  # the spacing the sizes are given in
+    h = 1.0  # the unit the sizes are given in
     width = 80.0 * h
-    nose = dict(depth=3.0, gap=gap, bulb=1.5)
-    mouth = dict(depth=6.0, gap=gap, bulb=2.0)
+    nose = _fold_segments(depth=3.0, gap=gap, bulb=1.5, crease=crease_radius)
+    mouth = _fold_segments(depth=6.0, gap=gap, bulb=2.0, crease=crease_radius)
     u_nose, u_mouth, flat = 25.0, 50.0, 75.0  # fold starts along the flat length
 
     def scales(y):
@@ -114,23 +156,24 @@ def lips_sheet(n: int = 11000, *, gap: float = 0.75, sampling: str = "uniform",
 
     def length(y):
         s_n, s_m = scales(y)
-        return flat + _fold_length(s_n, **nose) + _fold_length(s_m, **mouth)
+        return flat + _fold_length(s_n, nose) + _fold_length(s_m, mouth)
 
+    longest = float(np.max(length(np.linspace(0, width, 801))))
     area = (flat + float(np.mean(length(np.linspace(0, width, 400)) - flat))) * width
     density = n / area
     # Parameters (u, y) in the domain 0 <= u <= length(y), 0 <= y <= width.
     if sampling == "grid":
         step = 1.0 / np.sqrt(density)
-        u, y = np.meshgrid(np.arange(0, flat + 40, step), np.arange(0, width, step),
+        u, y = np.meshgrid(np.arange(0, longest + step, step), np.arange(0, width, step),
                            indexing="ij")
         P = np.column_stack([u.ravel(), y.ravel()])
         P = P + rng.uniform(-0.25 * step, 0.25 * step, P.shape)
     else:
-        P = rng.uniform([0, 0], [flat + 40, width], (int(density * (flat + 40) * width), 2))
+        P = rng.uniform([0, 0], [longest, width], (int(density * longest * width), 2))
     P = P[(P[:, 0] >= 0) & (P[:, 0] <= length(P[:, 1])) & (P[:, 1] >= 0) & (P[:, 1] <= width)]
     X, N = _lips_point(P, scales, nose, mouth, u_nose, u_mouth)
     F = _domain_delaunay(P, lambda Q: Q[:, 0] <= length(Q[:, 1]))
-    F = _orient(X, N, F)
+    F = _orient(X, N, _surface_delaunay(X, P, F))
     return Sheet(points=X, normals=N, faces=F, params=P, boundary_loops=1,
                  spacing=_mean_edge(X, F))
 
@@ -139,7 +182,8 @@ def _lips_point(P, scales, nose, mouth, u_nose, u_mouth):
     """3D points and normals of the lips sheet at parameters ``P`` (u, y)."""
     u, y = P[:, 0], P[:, 1]
     s_n, s_m = scales(y)
-    L_n, L_m = _fold_length(s_n, **nose), _fold_length(s_m, **mouth)
+    L_n, L_m = _fold_length(s_n, nose), _fold_length(s_m, mouth)
+    W_n, W_m = _fold_width(nose) * s_n, _fold_width(mouth) * s_m
     x = np.empty(len(u))
     z = np.zeros(len(u))
     tx, tz = np.ones(len(u)), np.zeros(len(u))
@@ -147,16 +191,16 @@ def _lips_point(P, scales, nose, mouth, u_nose, u_mouth):
     a = u < u_nose
     x[a] = u[a]
     b = (u >= u_nose) & (u < u_nose + L_n)
-    fx, fz, ftx, ftz = _fold(u[b] - u_nose, s_n[b], **nose)
+    fx, fz, ftx, ftz = _fold(u[b] - u_nose, s_n[b], nose)
     x[b], z[b], tx[b], tz[b] = u_nose + fx, fz, ftx, ftz
-    shift_n = nose["gap"] * s_n - L_n  # x of the flat after the nose fold, less its u
+    shift_n = W_n - L_n  # x of the flat after the nose fold, less its u
     c = (u >= u_nose + L_n) & (u < u_mouth + L_n)
     x[c] = u[c] + shift_n[c]
     d = (u >= u_mouth + L_n) & (u < u_mouth + L_n + L_m)
-    fx, fz, ftx, ftz = _fold(u[d] - u_mouth - L_n[d], s_m[d], **mouth)
+    fx, fz, ftx, ftz = _fold(u[d] - u_mouth - L_n[d], s_m[d], mouth)
     x[d], z[d], tx[d], tz[d] = u_mouth + shift_n[d] + L_n[d] + fx, fz, ftx, ftz
     e = u >= u_mouth + L_n + L_m
-    x[e] = u[e] + shift_n[e] + mouth["gap"] * s_m[e] - L_m[e]
+    x[e] = u[e] + shift_n[e] + W_m[e] - L_m[e]
     X = np.column_stack([x, y, z])
     N = np.column_stack([-tz, np.zeros(len(u)), tx])
     return X, N
@@ -229,6 +273,56 @@ def _domain_delaunay(P: np.ndarray, inside) -> np.ndarray:
     a, b = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
     cw = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0
     T[cw] = T[cw][:, [0, 2, 1]]  # counter-clockwise in the parameters
+    return T
+
+
+def _surface_delaunay(X: np.ndarray, P: np.ndarray, T: np.ndarray, rounds: int = 200
+                      ) -> np.ndarray:
+    """The triangles ``T`` (counter-clockwise in the parameters ``P``) with their edges flipped
+    until the mesh is Delaunay on the surface ``X`` (the two angles facing each inner edge sum
+    to at most pi in 3D), as far as a flip keeps both triangles counter-clockwise in ``P``:
+    where the parameters shear (the flats beside a fold whose size changes along y), their
+    own Delaunay triangles are slivers on the surface. Lawson's flips, in rounds of flips
+    that share no triangle."""
+    T = np.array(T, dtype=np.int64)
+    n = len(X)
+
+    def angle(at, b, c):
+        u, v = X[b] - X[at], X[c] - X[at]
+        return np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), np.einsum("kd,kd->k", u, v))
+
+    def ccw(a, b, c):
+        u, v = P[b] - P[a], P[c] - P[a]
+        return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0] > 0
+
+    for _ in range(rounds):
+        a, b, c = (T[:, q] for q in range(3))
+        # Half-edge (a, b) of triangle t, corner c opposite; its twin (b, a) in another one.
+        head = np.concatenate([a, b, c])
+        tail = np.concatenate([b, c, a])
+        opp = np.concatenate([c, a, b])
+        tri = np.tile(np.arange(len(T)), 3)
+        key = head * n + tail
+        order = np.argsort(key)
+        twin = np.searchsorted(key[order], tail * n + head)
+        twin = np.minimum(twin, len(key) - 1)
+        has = key[order][twin] == tail * n + head
+        one = np.flatnonzero(has & (head < tail))  # each inner edge once
+        other = order[twin[one]]
+        h, t, c1, c2 = head[one], tail[one], opp[one], opp[other]
+        excess = angle(c1, h, t) + angle(c2, t, h) - np.pi
+        # The flipped pair (h, c2, c1), (c2, t, c1) must stay counter-clockwise in P.
+        ok = (excess > 1e-9) & ccw(h, c2, c1) & ccw(c2, t, c1)
+        if not ok.any():
+            break
+        cand = np.flatnonzero(ok)[np.argsort(-excess[ok])]
+        t1, t2 = tri[one][cand], tri[other][cand]
+        # Flips that share no triangle: each triangle goes to its first (largest) flip.
+        first = np.full(len(T), len(cand))
+        np.minimum.at(first, np.concatenate([t1, t2]), np.tile(np.arange(len(cand)), 2))
+        win = cand[(first[t1] == np.arange(len(cand))) & (first[t2] == np.arange(len(cand)))]
+        T[tri[one][win]] = np.column_stack([h[win], c2[win], c1[win]])
+        T[tri[other][win]] = np.column_stack([c2[win], t[win], c1[win]])
     return T
 
 

@@ -12,8 +12,9 @@ from pcgeom.metrics import angle_distortion
 from pcgeom.synthetic_sheets import holed_sheet, lips_sheet
 
 
-def test_lips_sheet_is_a_disk_whose_walls_nearly_touch():
-    s = lips_sheet(4000, gap=0.75)
+@pytest.mark.parametrize("crease_radius", [0.0, 2.5])
+def test_lips_sheet_is_a_disk_whose_walls_nearly_touch(crease_radius):
+    s = lips_sheet(4000, gap=0.75, crease_radius=crease_radius)
     got = measure(s.faces)
     assert (got["euler"], got["boundary_loops"], got["genus"], got["pinched"]) == (1, 1, 0, 0)
     # Outward-consistent: the parameters map the true triangles without a flip.
@@ -23,6 +24,41 @@ def test_lips_sheet_is_a_disk_whose_walls_nearly_touch():
     cross = (np.einsum("nkd,nd->nk", s.normals[nb[:, 1:]], s.normals) < 0).any(axis=1)
     assert 0.05 < cross.mean() < 0.3, cross.mean()
     np.testing.assert_allclose(np.linalg.norm(s.normals, axis=1), 1.0)
+
+
+def test_the_folds_profile_is_a_smooth_curve_by_arc_length():
+    """Each fold of the lips sheet: a unit-speed curve whose tangent is the one returned, that
+    leaves and meets the flat heading +x, its walls ``gap`` apart, with no crease (the
+    tangent turns by under 5 degrees per 0.01 of arc length) unless ``crease_radius`` is 0."""
+    from pcgeom.synthetic_sheets import _fold, _fold_length, _fold_segments, _fold_width
+
+    for crease in (0.0, 2.5):
+        seg = _fold_segments(depth=6.0, gap=0.75, bulb=2.0, crease=crease)
+        for scale in (0.3, 1.0):
+            t = np.linspace(0.0, float(_fold_length(np.ones(1), seg)[0]) * scale, 20001)
+            x, z, tx, tz = _fold(t, np.full_like(t, scale), seg)
+            step = np.hypot(np.diff(x), np.diff(z)) / np.diff(t)
+            smooth = np.abs(step - 1.0) < 1e-6  # a chord across a crease is shorter
+            assert (~smooth).sum() == (0 if crease else 2)  # the bulb's two creases
+            assert (step < 1.0 + 1e-6).all()
+            _, _, mx, mz = _fold(0.5 * (t[1:] + t[:-1]), np.full(len(t) - 1, scale), seg)
+            np.testing.assert_allclose((np.diff(x) / np.diff(t))[smooth], mx[smooth], atol=1e-3)
+            np.testing.assert_allclose((np.diff(z) / np.diff(t))[smooth], mz[smooth], atol=1e-3)
+            # Off the flat heading +x (at t = 0 a sharp crease has turned already), onto it.
+            np.testing.assert_allclose([mx[0], mz[0]], [1.0, 0.0] if crease else [0.0, -1.0],
+                                       atol=1e-3)
+            np.testing.assert_allclose([tx[-1], tz[-1], z[-1]], [1.0, 0.0, 0.0], atol=1e-9)
+            np.testing.assert_allclose(x[-1], scale * (0.75 + 2 * crease), atol=1e-9)
+            np.testing.assert_allclose(x[-1], scale * _fold_width(seg), atol=1e-9)
+            turn = np.abs(np.diff(np.unwrap(np.arctan2(tz, tx))))
+            dt = 0.01 * (len(t) - 1) / t[-1]
+            assert (turn.max() * dt < np.radians(5)) == (crease > 0)
+    # The walls: points at the same depth on both, gap apart.
+    seg = _fold_segments(depth=6.0, gap=0.75, bulb=2.0, crease=2.5)
+    x, z, _, _ = _fold(np.array([2.5 * np.pi / 2 + 3.0]), np.ones(1), seg)
+    total = float(_fold_length(np.ones(1), seg)[0])
+    x2, z2, _, _ = _fold(np.array([total - 2.5 * np.pi / 2 - 3.0]), np.ones(1), seg)
+    np.testing.assert_allclose([x2[0] - x[0], z2[0] - z[0]], [0.75, 0.0], atol=1e-9)
 
 
 @pytest.mark.parametrize("sampling", ["uniform", "grid", "scan"])
@@ -39,5 +75,10 @@ def test_bad_arguments_are_one_line_errors():
         lips_sheet(1000, sampling="scan")
     with pytest.raises(InputError, match=r"^lips_sheet: gap must be a number > 0, got -1"):
         lips_sheet(1000, gap=-1)
+    with pytest.raises(InputError, match=r"^lips_sheet: crease_radius must be a number >= 0, "
+                                         r"got -1"):
+        lips_sheet(1000, crease_radius=-1)
+    with pytest.raises(InputError, match=r"^lips_sheet: gap must be under the bulbs' diameter"):
+        lips_sheet(1000, gap=3.5)
     with pytest.raises(InputError, match=r"^holed_sheet: unknown sampling 'x'"):
         holed_sheet(1000, sampling="x")
