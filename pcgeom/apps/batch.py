@@ -329,16 +329,21 @@ def _write_extras(job: dict, points, result: ParamResult, paths: dict, todo: lis
 
     from .boundary import detect_boundary
 
-    found = detect_boundary(result.uv)
+    # As pcgeom boundary and pcgeom reconstruct do: the loops judged on the points the map was
+    # made of, and the mesh lifted over the inliers only (strays never lifted).
+    surface = result.fitted if result.fitted is not None else points
     if "loops" in todo:
+        found = detect_boundary(result.uv, points=surface)
         document = {**found.to_dict(), "input": job["input"], "n_points": len(points)}
         write_atomic(paths["loops"], lambda f: f.write(json.dumps(document).encode("utf-8")))
     if "mesh" in todo:
-        from .reconstruct import reconstruct_surface
+        from .reconstruct import inlier_rows, reconstruct_surface
 
-        V, F, _ = reconstruct_surface(points, result.uv, found,
-                                      target_vertices=job["target_vertices"],
-                                      lambda_inv=result.lambda_inv)
+        rows = inlier_rows(surface, result.mesh_faces)
+        lam = result.lambda_inv[rows] if result.lambda_inv is not None else None
+        V, F, _ = reconstruct_surface(surface[rows], result.uv[rows],
+                                      detect_boundary(result.uv[rows], points=surface[rows]),
+                                      target_vertices=job["target_vertices"], lambda_inv=lam)
         write_ply_atomic(paths["mesh"], V, F)
 
 

@@ -41,7 +41,7 @@ examples:
       unevenly sampled scan; a true hole only ~3 spacings across goes too)
   pcgeom boundary scan.ply --map scan_uv.npz --every-loop --out loops.json
       every loop of the map's rule, none judged or set apart as a sampling gap (the default
-      judges each: face_human_choi bare 22 loops -> 3, peaks_7holes_choi 3 -> its 8)
+      judges each: face_human_choi bare 22 loops -> 1, peaks_7holes_choi 3 -> its 8)
 
 LOOPS.json holds {{"loops": [[i0, i1, ...], ...], "h": ..., ...}}: each loop as rows of INPUT
 (from 0), outer loop first (counter-clockwise in the map), then the holes by size. Without
