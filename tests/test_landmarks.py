@@ -251,3 +251,12 @@ def test_free_boundary_swapped_pins_warn_and_fold_nothing():
                              progress=False)
     assert result.history[0]["free_landmarks"]["landmarks"] == "pulled"
     assert angle_distortion(V, F, result.uv).flipped == 0
+
+
+def test_free_boundary_one_landmark_shifts_the_free_map():
+    from pcgeom import parametrize
+
+    V, F, rows, Q = _free_case(k=1)
+    result = parametrize(V, "free", landmarks=[(V[rows], Q)], progress=False)
+    assert result.history[0]["free_landmarks"]["landmarks"] == "shifted"
+    assert np.abs(result.uv[rows] - Q).max() < 1e-6

@@ -119,6 +119,18 @@ def _pulled(Q, n: int, index: np.ndarray, q: np.ndarray, weight: float) -> np.nd
     return np.column_stack([z[:n], z[n:]])
 
 
+def _rows(U: np.ndarray, main: np.ndarray, n: int) -> np.ndarray:
+    out = np.full((n, 2), np.nan)
+    out[main] = U
+    return out
+
+
+def _known(main: np.ndarray, n: int) -> np.ndarray:
+    known = np.zeros(n, dtype=bool)
+    known[main] = True
+    return known
+
+
 def pinned_free(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, landmarks, *,
                 weight: float = 0.0) -> tuple[np.ndarray, dict]:
     """The free-boundary map with landmarks (steps 1-3 of the module).
@@ -142,7 +154,8 @@ def pinned_free(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, landmarks, *,
     U : (N, 2) float64
         The map, in the targets' frame.
     info : dict
-        ``landmarks`` (``"pinned"`` or ``"pulled"``), ``weight`` (the one used, after any
+        ``landmarks`` (``"pinned"``, ``"pulled"``, ``"free"`` when even a pull folds, or
+        ``"shifted"``: one target, the free map moved onto it), ``weight`` (the one used, after any
         softening), ``softened`` (divisions by 10), ``pins`` (vertices held), ``seconds``.
 
     Warns
@@ -171,8 +184,14 @@ def pinned_free(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, landmarks, *,
     Q = _lscm_system(V, F)
     n = len(V)
     pins = np.unique(index)
-    # Fewer than two distinct pins leave LSCM's turn and scale free: pulled then.
-    hard = weight == 0 and len(np.unique(q, axis=0)) >= 2
+    if len(np.unique(q, axis=0)) < 2 or len(pins) < 2:
+        # One target (or one landmark point) fixes a place, not a turn or a scale: the free
+        # map, shifted onto it.
+        U = moved + (q - moved[index]).mean(axis=0)
+        out = _interpolate_rest(X, _rows(U, main, len(X)), _known(main, len(X)))
+        return out, {"landmarks": "shifted", "weight": 0.0, "softened": 0, "pins": len(pins),
+                     "seconds": round(time.perf_counter() - t0, 3)}
+    hard = weight == 0
     w = weight if weight > 0 else PULL_START
     U = _pinned(Q, n, index, q) if hard else _pulled(Q, n, index, q, w)
     folds = int((positive & (sign * signed_areas(U, F) <= 0)).sum())
@@ -186,11 +205,7 @@ def pinned_free(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, landmarks, *,
     kind = "pinned" if hard else "pulled"
     if folds:
         U, w = moved, 0.0
-    out = np.full((len(X), 2), np.nan)
-    out[main] = U
-    known = np.zeros(len(X), dtype=bool)
-    known[main] = True
-    out = _interpolate_rest(X, out, known)
+    out = _interpolate_rest(X, _rows(U, main, len(X)), _known(main, len(X)))
     if softened:
         miss = max(hausdorff(out[main[i]], t) for i, t in marks)
         done = ("left them free (the free map, moved onto them by a similarity)" if folds
