@@ -66,6 +66,7 @@ def run(name: str, kind: str, P, faces=None, repeats: int = 1) -> dict:
         row.update(rad=rep["mean_abs_angle_rad"], true_flips=rep["flipped"],
                    crossed=rep["seam_crossed_percent"], true_spread=rep["stretch"],
                    lscm=base["mean_abs_angle_rad"], lscm_flips=base["flipped"],
+                   lscm_skipped=base["skipped"],
                    ratio=rep["mean_abs_angle_rad"] / max(base["mean_abs_angle_rad"], 1e-300))
     harness.log(f"{name} {len(P)}: {row}")
     return row
@@ -119,6 +120,7 @@ def main(argv=None) -> int:
         ("surface", "{surface}"), ("rad inside charts", "{rad:.4f}"),
         ("libigl LSCM, same seams", "{lscm:.4f}"), ("ratio", "{ratio:.2f}"),
         ("flips (LSCM)", "{true_flips} ({lscm_flips})"), ("seam-crossed %", "{crossed:.2f}"),
+        ("LSCM skipped", "{lscm_skipped}"),
         ("spread", "{true_spread:.2f}")], true)
     failed = [r for r in rows if "error" in r]
     if failed:

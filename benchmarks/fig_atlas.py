@@ -1,6 +1,9 @@
 """docs/fig_atlas.png: a bare torus cloud (5000 points) with ``cut="auto"``: the atlas in the
 unit square (seam edges red), and the surface with a 16 x 16 checkerboard in the atlas's
-per-corner uv.
+per-corner uv. docs/fig_atlas_finger.png: the same for the finger (5000 points: a disk with a
+long thin tube, whose one free chart shrinks the tube), whose atlas has several charts, and
+docs/fig_atlas_charts.png, its charts and seams (``pcgeom.apps.plot_atlas``, what ``--plot``
+draws).
 
     python benchmarks/fig_atlas.py
 """
@@ -23,9 +26,24 @@ from pcgeom.mesh import boundary_loops  # noqa: E402
 from pcgeom.synthetic_closed import closed_surface  # noqa: E402
 
 
-def main(out=Path(__file__).resolve().parents[1] / "docs" / "fig_atlas.png"):
+def main(docs=Path(__file__).resolve().parents[1] / "docs"):
+    from pcgeom.apps.plot_atlas import plot_atlas
+    from pcgeom.synthetic_atlas import finger
+
     s = closed_surface("torus", 5000)
-    r = parametrize(s.points, "free", cut="auto", progress=False)
+    figure(s, parametrize(s.points, "free", cut="auto", progress=False),
+           docs / "fig_atlas.png", "torus, 5000 bare points: the checkerboard of the atlas",
+           (35, 30))
+    f = finger(5000)
+    r = parametrize(f.points, "free", cut="auto", progress=False)
+    figure(f, r, docs / "fig_atlas_finger.png",
+           "finger, 5000 bare points: the checkerboard of the atlas", (30, -60))
+    plot_atlas(f.points, r.mesh_faces, r.corner_uv, docs / "fig_atlas_charts.png",
+               title="finger, 5000 bare points, --cut auto --plot")
+    print(docs / "fig_atlas_charts.png")
+
+
+def figure(s, r, out, title, view):
     C = r.corner_uv.reshape(-1, 2)
     CF = np.arange(len(C)).reshape(-1, 3)
     colours = np.array(CHECKER_COLOURS)[checker_parity(C, CF, 16)] / 255.0
@@ -33,35 +51,37 @@ def main(out=Path(__file__).resolve().parents[1] / "docs" / "fig_atlas.png"):
     keys, inv = np.unique(np.column_stack([r.mesh_faces.reshape(-1, 1), C]), axis=0,
                           return_inverse=True)
     Fc = inv.reshape(-1, 3)
-    loop = np.array(boundary_loops(Fc)[0])
+    loops = [np.array(loop) for loop in boundary_loops(Fc)]
     fig = plt.figure(figsize=(12, 5.6))
     ax = fig.add_subplot(1, 2, 1)
     ax.add_collection(PolyCollection(C[CF], facecolors=colours, edgecolors="none"))
-    ring = keys[np.r_[loop, loop[:1]], 1:]
-    ax.plot(ring[:, 0], ring[:, 1], color="crimson", lw=1.2)
+    for loop in loops:
+        ring = keys[np.r_[loop, loop[:1]], 1:]
+        ax.plot(ring[:, 0], ring[:, 1], color="crimson", lw=1.2)
     ax.plot([0, 1, 1, 0, 0], [0, 0, 1, 1, 0], color="k", lw=0.8)
     ax.set_xlim(-0.02, 1.02)
     ax.set_ylim(-0.02, 1.02)
     ax.set_aspect("equal")
     rec = r.history[-1]
-    ax.set_title(f"atlas: 1 chart, {rec['flips']['count']} flipped, spread "
+    ax.set_title(f"atlas: {rec['charts']} chart(s), {rec['flips']['count']} flipped, spread "
                  f"{rec['stretch']:.1f}, seams {rec['seam_length']:.2f} sqrt(area)")
     ax3 = fig.add_subplot(1, 2, 2, projection="3d")
     P = s.points
     # Only the triangles that face the viewer (matplotlib sorts polygons, not pixels).
-    elev, azim = np.radians(35), np.radians(30)
+    elev, azim = np.radians(view[0]), np.radians(view[1])
     eye = np.array([np.cos(elev) * np.cos(azim), np.cos(elev) * np.sin(azim), np.sin(elev)])
     front = (s.normals[r.mesh_faces].mean(axis=1) @ eye) > 0
     ax3.add_collection3d(Poly3DCollection(P[r.mesh_faces[front]], facecolors=colours[front],
                                           edgecolors=colours[front], linewidths=0.2))
-    lim = np.abs(P).max()
-    ax3.set_xlim(-lim, lim)
-    ax3.set_ylim(-lim, lim)
-    ax3.set_zlim(-lim, lim)
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    c, lim = (lo + hi) / 2, float((hi - lo).max()) / 2
+    ax3.set_xlim(c[0] - lim, c[0] + lim)
+    ax3.set_ylim(c[1] - lim, c[1] + lim)
+    ax3.set_zlim(c[2] - lim, c[2] + lim)
     ax3.set_box_aspect((1, 1, 1))
-    ax3.view_init(elev=35, azim=30)
+    ax3.view_init(elev=view[0], azim=view[1])
     ax3.set_axis_off()
-    ax3.set_title("torus, 5000 bare points: the checkerboard of the atlas")
+    ax3.set_title(title)
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     print(out)

@@ -144,13 +144,15 @@ def same_seams_lscm(P, faces, result) -> dict:
 
     The true triangles a seam crosses (:func:`triangle_uv`) are left out; two of the others
     share a vertex where they give a point the same atlas position (a seam point's sides
-    differ), so the mesh falls into the map's charts, slits open. Each part: ``igl.lscm``
+    differ) and are joined across an edge, so the mesh falls into the map's charts, slits
+    open. Each part: ``igl.lscm``
     with two far boundary vertices pinned (the free-boundary minimizer up to a similarity).
 
     Returns
     -------
     dict
-        ``mean_abs_angle_rad``, ``flipped``, ``n_faces``, ``parts``.
+        ``mean_abs_angle_rad``, ``flipped``, ``n_faces``, ``parts``, ``skipped`` (triangles
+        of parts libigl's solve fails on, left out).
     """
     import igl
     from scipy.sparse import coo_matrix
@@ -167,12 +169,21 @@ def same_seams_lscm(P, faces, result) -> dict:
     Fc = ids.reshape(-1, 3)
     origin = np.zeros(int(Fc.max()) + 1, dtype=np.int64)
     origin[Fc.ravel()] = F.ravel()
+    # Points the left-out triangles pinch (two fans meeting at one point) split, as the map's
+    # own charts are: libigl's solve fails on such a part.
+    from ..mesh import unique_edges
+    from .seams import cut_open
+
+    E = unique_edges(Fc)
+    Fc, o = cut_open(Fc, E, np.zeros(len(E), dtype=bool), len(origin))
+    origin = origin[o]
     n = len(origin)
     A = coo_matrix((np.ones(2 * len(Fc)), (np.r_[Fc[:, 0], Fc[:, 1]], np.r_[Fc[:, 1], Fc[:, 2]])),
                    shape=(n, n))
     count, label = connected_components(A, directed=False)
     Vc = P[origin]
     U = np.zeros((n, 2))
+    skipped = np.zeros(len(Fc), dtype=bool)
     for c in range(count):
         sub = np.flatnonzero(label[Fc[:, 0]] == c)
         used, Fs = np.unique(Fc[sub], return_inverse=True)
@@ -182,12 +193,18 @@ def same_seams_lscm(P, faces, result) -> dict:
         a = loop[np.argmax(np.linalg.norm(V[loop] - V[loop[0]], axis=1))]
         b = loop[np.argmax(np.linalg.norm(V[loop] - V[a], axis=1))]
         d = float(np.linalg.norm(V[a] - V[b]))
-        Us = igl.lscm(np.ascontiguousarray(V), np.ascontiguousarray(Fs),
-                      np.array([a, b], dtype=np.int64), np.array([[0.0, 0.0], [d, 0.0]]))[0]
+        try:
+            if a == b or d <= 0:
+                raise RuntimeError("no two distinct pins")
+            Us = igl.lscm(np.ascontiguousarray(V), np.ascontiguousarray(Fs),
+                          np.array([a, b], dtype=np.int64), np.array([[0.0, 0.0], [d, 0.0]]))[0]
+        except RuntimeError:  # a part libigl cannot solve (a sliver): left out, counted
+            skipped[sub] = True
+            continue
         Us = np.asarray(Us, dtype=np.float64)
         if signed_areas(Us, Fs).sum() < 0:
             Us[:, 1] *= -1.0
         U[used] = Us
-    rep = angle_distortion(Vc, Fc, U)
+    rep = angle_distortion(Vc, Fc[~skipped], U)
     return {"mean_abs_angle_rad": rep.mean_abs, "flipped": rep.flipped,
-            "n_faces": rep.n_faces, "parts": int(count)}
+            "n_faces": rep.n_faces, "parts": int(count), "skipped": int(skipped.sum())}
