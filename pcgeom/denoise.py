@@ -22,7 +22,9 @@ point.
    under-reads strong noise less (measured 0.85-0.98 of the true std on a noisy plane and
    sphere cap, 0.82-1.00 on face_3holes_small_choi with depth noise of 0.25-1 mean edge
    lengths; 16 neighbours: 0.70-0.96). Strays (:func:`pcgeom.neighbours.find_outliers`) are left
-   out, and with oriented normals each fit keeps its point's sheet.
+   out, and each fit keeps its point's sheet: with oriented normals the neighbours whose
+   normal agrees, without them those on the point's side of a jump in their offsets
+   (:func:`pcgeom.neighbours.own_sheet`; a groove's facing wall read as noise before).
 2. **Heights** (:func:`fit_heights`). Each point is moved along the normal of a weighted
    least-squares quadric (a jet of order 2, as in moving least squares) fitted to its
    ``neighbours`` nearest points with Gaussian weights ``exp(-d^2 / (2 rho^2))``,
@@ -90,7 +92,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .config import DenoiseConfig
-from .neighbours import Neighbours, find_outliers, local_pca, quadric_basis, surface_variation
+from .neighbours import (Neighbours, find_outliers, local_pca, own_sheet, quadric_basis,
+                         surface_variation)
 
 __all__ = ["NoiseEstimate", "estimate_noise", "fit_heights", "denoise_points"]
 
@@ -134,6 +137,8 @@ def estimate_noise(X, neighbours: int = 16, normals=None, *, knn: Neighbours | N
     normals : (N, 3) array_like, optional
         Oriented normals: each fit keeps the neighbours whose normal agrees with its point's
         (``n_i . n_j > 0``), so that the other sheet of a fold does not read as noise.
+        Without them, those on the point's side of a jump in the offsets along its normal
+        (:func:`pcgeom.neighbours.own_sheet`).
     knn : Neighbours, optional
         The points' nearest points, when already found (at least ``neighbours - 1`` each).
 
@@ -148,10 +153,11 @@ def estimate_noise(X, neighbours: int = 16, normals=None, *, knn: Neighbours | N
     gaps = np.empty(len(X))
     for s in range(0, len(X), _CHUNK):
         rows = nb[s:s + _CHUNK]
-        w = np.ones(rows.shape)
+        P = X[rows]  # (n, k, 3)
         if normals is not None:
             w = (np.einsum("nd,nkd->nk", normals[s:s + _CHUNK], normals[rows]) > 0).astype(float)
-        P = X[rows]  # (n, k, 3)
+        else:
+            w = own_sheet(P).astype(float)
         centre = np.einsum("nk,nkd->nd", w, P) / w.sum(axis=1, keepdims=True)
         Q = P - centre[:, None]
         _, frame = np.linalg.eigh(np.einsum("nk,nki,nkj->nij", w, Q, Q))  # columns: n, t1, t2
