@@ -59,7 +59,7 @@ def cloud_row(case: str, points, clean, faces, work: Path) -> dict:
     row = {"case": case, "n": len(points), "anchor_s": seconds, "anchor_method": which["method"],
            **{f"anchor_{k}": v for k, v in _score(anchor, clean, faces).items()}}
     # The ideal: the method on the clean true mesh (the same as the anchor without noise).
-    row["clean_rad"] = (row["anchor_rad"] if points is clean
+    row["clean_rad"] = (row["anchor_rad"] if np.array_equal(points, clean)
                         else _score(sphere_conformal(clean, faces), clean, faces)["rad"])
     if run["error"]:
         H.log(f"{case}: FAILED {run['error']}")

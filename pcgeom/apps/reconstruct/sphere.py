@@ -44,10 +44,10 @@ __all__ = ["reconstruct_on_sphere", "sphere_triangulation", "lift_sphere", "mesh
 
 VERTICES_PER_POINT = 3
 """The default target vertex count of a closed mesh, per point of the cloud: about what
-screened Poisson at its default depth 8 makes of a clean closed cloud (2.6-3.2 vertices per
-point on 5k and 20k clouds of the sphere, ellipsoid, bumpy sphere and peanut, 1.0-1.3 on
-closed_david_head_choi; depth 10: 2.9-3.3), so that the default mesh is compared at the
-resolution of Poisson's default. At one vertex per point, Poisson was the closer on the 5k
+screened Poisson at its default depth 8 makes of a clean closed cloud (2.8-3.3 vertices per
+point on 5k clouds of the sphere, ellipsoid, bumpy sphere and peanut, 1.7-3.2 on 20k ones,
+2.0 on closed_david_head_choi; depth 10: 2.8-3.3 on the analytic clouds), so that the
+default mesh is compared at the resolution of Poisson's default. At one vertex per point, Poisson was the closer on the 5k
 analytic clouds (BENCHMARKS.md, bench_reconstruct_sphere)."""
 
 MAX_DEFAULT_VERTICES = 200_000
