@@ -16,8 +16,8 @@ region's rim is one simple loop of the mesh's own edges, no edge gains a third t
 uses every point it freed, and no triangle of it is wider, nor leaves a wider empty circle,
 than the widest the sampling leaves (:func:`pcgeom.maps.topology.widest_empty`): a hole of
 the surface (wider than any empty circle of the sampling) stays open, and a patch that is
-not flat in any plane (a fold of the surface) keeps its mesh. A flat re-mesh of a neighbourhood is an embedding of it in its plane:
-it turns no triangle of a map over.
+not flat in any plane (a fold of the surface) keeps its mesh. A flat re-mesh of a
+neighbourhood is an embedding of it in its plane: it turns no triangle of a map over.
 
 Where the neighbourhood is too curved for one plane (the shared peaks: its corners' normals
 over 90 degrees apart over a ring), the loop is often held open by an ear: a triangle of the
