@@ -170,8 +170,10 @@ def test_cli_obj(tmp_path, capsys, torus_file):
 
     obj = tmp_path / "t.obj"
     assert cli.main(["param", str(torus_file), "--cut", "auto", "--out", str(tmp_path / "t.npz"),
-                     "--out-mesh", str(obj), "--texture", "checker:8", "--quiet"]) == 0
+                     "--out-mesh", str(obj), "--texture", "checker:8", "--quiet",
+                     "--plot", str(tmp_path / "p.png")]) == 0
     capsys.readouterr()
+    assert (tmp_path / "p.png").stat().st_size > 10000  # the atlas figure
     r = ParamResult.load(tmp_path / "t.npz")
     text = obj.read_text()
     n_v = sum(line.startswith("v ") for line in text.splitlines())
@@ -225,15 +227,12 @@ def test_cli_evaluate_cut_map(tmp_path, capsys, torus_file):
     assert cli.main(["evaluate", str(torus_file), str(out), "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["flipped"] == 0 and rep["charts"] == 1 and rep["seam_crossed"] > 0
-    # --plot: the atlas, charts coloured, seams on the surface; param --plot draws the same.
+    # --plot: the atlas, charts coloured, seams on the surface (param --plot: test_cli_obj).
     assert cli.main(["evaluate", str(torus_file), str(out), "--plot",
                      str(tmp_path / "a.png"), "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["plots"]["atlas"] == str(tmp_path / "a.png")
     assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert cli.main(["param", str(torus_file), "--cut", "auto", "--out", str(out), "--quiet",
-                     "--plot", str(tmp_path / "p.png")]) == 0
-    assert (tmp_path / "p.png").stat().st_size > 10000
 
 
 def test_more_roots_never_longer():
@@ -247,7 +246,7 @@ def test_more_roots_never_longer():
     assert euler_characteristic(Fc) == 1 and len(boundary_loops(Fc)) == 1
 
 
-def test_an_overlapping_chart_is_split(monkeypatch, torus):
+def test_an_overlapping_chart_is_split(monkeypatch):
     """A chart whose boundary crosses itself is split into charts, each one-to-one, packed
     apart by xatlas; when nothing maps it (Tutte's embedding held to fail too), a one-line
     error, no result."""
@@ -267,7 +266,8 @@ def test_an_overlapping_chart_is_split(monkeypatch, torus):
         return U, info
 
     monkeypatch.setattr(atlas, "chart_map", crossed)
-    r = parametrize(torus.points, cut="auto", progress=False)
+    small = closed_surface("torus", 1000, seed=3).points
+    r = parametrize(small, cut="auto", progress=False)
     rec = r.history[-1]
     assert rec["charts"] >= 2 and rec["seams"]["splits"] >= 1 and rec["packer"] == "xatlas"
     assert rec["flips"]["count"] == 0 and rec["overlap_area"] < 1e-9
@@ -287,7 +287,7 @@ def test_an_overlapping_chart_is_split(monkeypatch, torus):
     monkeypatch.setattr(charts.fit_charts, "__kwdefaults__", {"roots": 1, "slits": 6, "depth": 0})
     with pytest.raises(InputError, match=r"the atlas of this cloud is not one-to-one \(0 "
                        r"triangles turned over, [0-9.]+% of its area covered twice\) when"):
-        parametrize(torus.points, cut="auto", progress=False)
+        parametrize(small, cut="auto", progress=False)
 
 
 def test_finger_gets_seams_within_the_bound():
