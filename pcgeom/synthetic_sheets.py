@@ -17,7 +17,7 @@ from scipy.spatial import Delaunay
 
 from .errors import InputError
 
-__all__ = ["Sheet", "lips_sheet", "holed_sheet", "CREASE_RADIUS"]
+__all__ = ["Sheet", "lips_sheet", "lips_fold_scale", "holed_sheet", "CREASE_RADIUS"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -142,17 +142,9 @@ def lips_sheet(n: int = 11000, *, gap: float = 0.75, crease_radius: float = CREA
         raise InputError(f"lips_sheet: crease_radius must be a number >= 0, got "
                          f"{crease_radius!r}")
     rng = np.random.default_rng(seed)
-    h = 1.0  # the unit the sizes are given in
-    width = 80.0 * h
-    nose = _fold_segments(depth=3.0, gap=gap, bulb=1.5, crease=crease_radius)
-    mouth = _fold_segments(depth=6.0, gap=gap, bulb=2.0, crease=crease_radius)
-    u_nose, u_mouth, flat = 25.0, 50.0, 75.0  # fold starts along the flat length
-
-    def scales(y):
-        s_nose = np.maximum(_smooth_step((y - 8) / 12) * _smooth_step((36 - y) / 12),
-                            _smooth_step((y - 44) / 12) * _smooth_step((72 - y) / 12))
-        s_mouth = _smooth_step((y - 8) / 20) * _smooth_step((72 - y) / 20)
-        return s_nose, s_mouth
+    width, flat = _LIPS_WIDTH, _LIPS_FLAT
+    nose, mouth = _lips_folds(gap, crease_radius)
+    scales = _lips_scales
 
     def length(y):
         s_n, s_m = scales(y)
@@ -171,11 +163,54 @@ def lips_sheet(n: int = 11000, *, gap: float = 0.75, crease_radius: float = CREA
     else:
         P = rng.uniform([0, 0], [longest, width], (int(density * longest * width), 2))
     P = P[(P[:, 0] >= 0) & (P[:, 0] <= length(P[:, 1])) & (P[:, 1] >= 0) & (P[:, 1] <= width)]
-    X, N = _lips_point(P, scales, nose, mouth, u_nose, u_mouth)
+    X, N = _lips_point(P, scales, nose, mouth, _U_NOSE, _U_MOUTH)
     F = _domain_delaunay(P, lambda Q: Q[:, 0] <= length(Q[:, 1]))
     F = _orient(X, N, _surface_delaunay(X, P, F))
     return Sheet(points=X, normals=N, faces=F, params=P, boundary_loops=1,
                  spacing=_mean_edge(X, F))
+
+
+_LIPS_WIDTH, _LIPS_FLAT = 80.0, 75.0
+"""The lips sheet's extent along y, and its flat length along u (without the folds)."""
+_U_NOSE, _U_MOUTH = 25.0, 50.0
+"""Where along the flat length the nostrils' and the mouth's folds start."""
+
+
+def _lips_folds(gap: float, crease: float):
+    """The nostrils' fold (walls 3 deep, bulb radius 1.5) and the mouth's (6, 2)."""
+    return (_fold_segments(depth=3.0, gap=gap, bulb=1.5, crease=crease),
+            _fold_segments(depth=6.0, gap=gap, bulb=2.0, crease=crease))
+
+
+def _lips_scales(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The nostrils' and the mouth's fold scales along y (0: no fold, 1: full size)."""
+    s_nose = np.maximum(_smooth_step((y - 8) / 12) * _smooth_step((36 - y) / 12),
+                        _smooth_step((y - 44) / 12) * _smooth_step((72 - y) / 12))
+    s_mouth = _smooth_step((y - 8) / 20) * _smooth_step((72 - y) / 20)
+    return s_nose, s_mouth
+
+
+def lips_fold_scale(params: np.ndarray, *, gap: float = 0.75,
+                    crease_radius: float = CREASE_RADIUS, margin: float = 2.0) -> np.ndarray:
+    """The scale (0 to 1) of the fold that each point of :func:`lips_sheet` (its ``params``,
+    same ``gap`` and ``crease_radius``) lies on or beside (within ``margin`` along u); 1
+    elsewhere. Where it is small, the fold tapers off: narrower than the sampling.
+
+    Returns
+    -------
+    (N,) float64
+    """
+    P = np.asarray(params, dtype=np.float64)
+    u, y = P[:, 0], P[:, 1]
+    nose, mouth = _lips_folds(gap, crease_radius)
+    s_n, s_m = _lips_scales(y)
+    L_n, L_m = _fold_length(s_n, nose), _fold_length(s_m, mouth)
+    out = np.ones(len(P))
+    at_nose = (u >= _U_NOSE - margin) & (u <= _U_NOSE + L_n + margin)
+    at_mouth = (u >= _U_MOUTH + L_n - margin) & (u <= _U_MOUTH + L_n + L_m + margin)
+    out[at_nose] = s_n[at_nose]
+    out[at_mouth] = s_m[at_mouth]
+    return out
 
 
 def _lips_point(P, scales, nose, mouth, u_nose, u_mouth):

@@ -48,3 +48,16 @@ def test_the_lips_sheets_bridges_are_cut_with_its_normals():
     # (the repair's fills may join opposite normals again, a few)
     left = bridge_candidates(s.normals, cut.faces).sum()
     assert left < 0.2 * bridge_candidates(s.normals, today.faces).sum()
+
+
+def test_runs_cut_bridges_when_the_cloud_has_normals():
+    """mesh_cloud cuts the lips sheet's bridges with its normals (BRIDGES_WITH_INPUT_NORMALS)
+    and says so in the record; asked not to, it cuts none."""
+    from pcgeom.maps.localmesh import mesh_cloud
+
+    s = lips_sheet(3000, gap=0.75)
+    Xn, _, _ = normalize(s.points)
+    _, _, record = mesh_cloud(Xn, s.normals, 24, 16, progress=False, onto=None)
+    _, _, kept = mesh_cloud(Xn, s.normals, 24, 16, progress=False, onto=None, bridges=False)
+    assert record["topology"]["bridges_cut"] > 0 and kept["topology"]["bridges_cut"] == 0
+    assert record["genus"] < kept["genus"]

@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 from pcgeom import InputError
 from pcgeom.maps.topology import measure
 from pcgeom.metrics import angle_distortion
-from pcgeom.synthetic_sheets import holed_sheet, lips_sheet
+from pcgeom.synthetic_sheets import holed_sheet, lips_fold_scale, lips_sheet
 
 
 @pytest.mark.parametrize("crease_radius", [0.0, 2.5])
@@ -59,6 +59,21 @@ def test_the_folds_profile_is_a_smooth_curve_by_arc_length():
     total = float(_fold_length(np.ones(1), seg)[0])
     x2, z2, _, _ = _fold(np.array([total - 2.5 * np.pi / 2 - 3.0]), np.ones(1), seg)
     np.testing.assert_allclose([x2[0] - x[0], z2[0] - z[0]], [0.75, 0.0], atol=1e-9)
+
+
+def test_lips_fold_scale_says_where_the_folds_taper():
+    """Full size on the folds in the middle rows, nothing in the first rows (the folds open
+    from y = 8), 1 on the flat away from the folds."""
+    s = lips_sheet(3000)
+    scale = lips_fold_scale(s.params)
+    deep = s.points[:, 2] < -1.0  # on a fold, below its rounded edge
+    middle = np.abs(s.params[:, 1] - 40.0) < 2.0
+    assert deep.any() and (scale[deep] > 0).all()
+    np.testing.assert_allclose(scale[deep & middle], 1.0)  # the mouth at full size there
+    first = s.params[:, 1] < 8.0
+    u = s.params[first, 0]
+    beside = (np.abs(u - 25.0) <= 2.0) | (np.abs(u - 50.0) <= 2.0)  # where the folds start
+    assert beside.any() and (scale[first] == np.where(beside, 0.0, 1.0)).all()
 
 
 @pytest.mark.parametrize("sampling", ["uniform", "grid", "scan"])

@@ -13,22 +13,29 @@ turned over). The candidates are cut only when the repaired local mesh
 (:func:`pcgeom.maps.topology.repair`) has handles (genus > 0) and the mesh repaired without
 them has fewer: a handle the cloud's boundary does not explain is a bridge.
 
-**Off in runs** (``local_mesh(..., bridges=True)`` asks for it): measured side by side
-(``fast``, angle and flips on the true triangles, 2026-12-05; the tables:
-benchmarks/bench_bridges.py in BENCHMARKS.md), it does not mend the lips sheet and is not
-safe everywhere:
+**In runs of clouds with normals** (:data:`pcgeom.maps.localmesh.BRIDGES_WITH_INPUT_NORMALS`;
+``local_mesh(..., bridges=True)`` asks for it anywhere). Measured side by side on the lips
+sheet with rounded lips and nostrils (fillets of radius 2.5 where the folds meet the flat,
+walls 0.75 apart: 0.74 true spacings at 11k points; ``fast`` onto free, angle and flips on
+the true triangles, 2026-12-05; benchmarks/bench_bridges.py in BENCHMARKS.md): with its
+normals better at all nine samplings (3k-11k points; 11k, seeds 0-2: 0.0730, 0.0762, 0.0581
+rad -> 0.0429, 0.0353, 0.0370, that is 2.04-2.29x libigl's LSCM on the true mesh ->
+1.06-1.32x, flipped 1.04-1.13% -> 0.87-1.03%); the pleats and the four shared open surfaces
+with normals unchanged (no handle: nothing cut, same times). Not on bare clouds: the
+estimated normals of walls that nearly touch are turned the wrong way in patches, and the
+pleats' repaired meshes in the normal rounds have handles that are not bridges (bare pleats
+0.026 -> 0.068 rad, 0.34 -> 0.73% flipped: their half-circle folds, 0.75 spacings in radius,
+turn by more than a right angle within a triangle).
 
-- In every build (bare clouds too, the normal rounds' meshes included): lips_sheet(11000,
-  gap=0.75) with its normals 0.0869 rad, 4.55% flipped -> 0.0741, 4.32% (93 triangles cut,
-  genus 2 -> 0), bare 0.148, 10.9% -> 0.127, 11.9%; face_human_choi bare 0.0333, 2.49% ->
-  0.0324, 2.36% (genus 8 -> 2); but the pleats (bare; their repaired meshes in the normal
-  rounds have genus 3, 2, 4, 0) 0.026, 0.34% -> 0.068, 0.73%: their half-circle folds, 0.75
-  spacings in radius, turn by more than a right angle within a triangle, and the round whose
-  cut mesh turns over fewest of its own triangles is kept.
-- With given normals only: the lips sheet at eight samplings (3k-11k points) better at four,
-  worse at three (8000 points, seed 1: 0.099 rad, 4.0% -> 0.122, 8.8%).
+What is left on the rounded lips sheet with normals (11k, seed 0: 1.03% flipped, LSCM on
+the true mesh itself 0.12%): two thirds of the flips (0.68%) are where a fold tapers off
+(under half its size, narrower than the sampling). Bare (2.6-3.4x LSCM, 2.9-5.6% flipped):
+439 of its 3043 points on the folds get estimated normals turned the wrong way, in patches
+of up to 150 points on the walls and bulbs (the orientation's spanning tree crosses the
+0.75-spacing gap), and the flips follow them.
 
-What limits the lips sheet is not bridges alone: its edges are right-angle creases, across
+On the first lips sheet, whose folds met the flat at right-angle creases (``crease_radius=0``):
+what limited it was not bridges alone: its edges were right-angle creases, across
 which true normals have ``n_i . n_j = 0`` and the fans (same-sheet neighbours: ``> 0``) join
 neither side, so its folds hang from the flat only where they taper off, while the flats
 either side of the slit (same normals, 0.75 spacings apart) are bridged; bare, the two walls'

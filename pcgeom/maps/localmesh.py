@@ -15,10 +15,10 @@ map of :mod:`pcgeom.maps.free`, the disk and domain maps after it):
    ones most fans agree on first, then the better-shaped: a triangle is kept only if each of its
    edges stays in at most two triangles, with opposite directions. The result is edge-manifold
    and consistently oriented. (LSCM over the plain union of the fans folds: DESIGN.md.)
-4. **Topology.** The mesh is repaired (:mod:`pcgeom.maps.topology`). On request
-   (``local_mesh(..., bridges=True)``, no run asks yet: measured there), its bridges between
+4. **Topology.** The mesh is repaired (:mod:`pcgeom.maps.topology`). Its bridges between
    sheets that nearly touch are cut where that lowers the repaired mesh's genus
-   (:mod:`pcgeom.maps.bridges`).
+   (:mod:`pcgeom.maps.bridges`) when the cloud came with its normals
+   (:data:`BRIDGES_WITH_INPUT_NORMALS`; ``local_mesh(..., bridges=True)`` asks for it).
 
 :func:`mesh_cloud` is the whole step as a run takes it: outliers flagged, the surface test,
 normals estimated and oriented when the cloud has none (:mod:`pcgeom.maps.normals`), the mesh,
@@ -42,7 +42,18 @@ from .normals import orient_normals
 from .topology import PLANAR_CLOSED, SPACING_NEIGHBOURS, Topology, repair, require_open
 
 __all__ = ["LocalMesh", "local_mesh", "mesh_cloud", "mesh_flips", "mesh_normals",
-           "topology_record", "CLOSED_SURFACE", "MIN_MESHED", "NOT_A_SURFACE"]
+           "topology_record", "BRIDGES_WITH_INPUT_NORMALS", "CLOSED_SURFACE", "MIN_MESHED",
+           "NOT_A_SURFACE"]
+
+BRIDGES_WITH_INPUT_NORMALS = True
+""":func:`mesh_cloud` cuts the bridges between sheets (:mod:`pcgeom.maps.bridges`) of a cloud
+that came with its normals, and not of a bare one. Measured side by side (``fast`` onto free,
+benchmarks/bench_bridges.py): the rounded lips sheet with its normals better at all nine
+samplings (3k-11k points; 11k, three seeds: 2.04-2.29x libigl LSCM on the true mesh ->
+1.06-1.32x, flipped 1.04-1.13% -> 0.87-1.03%), the pleats and the shared surfaces with
+normals unchanged (no handle, nothing cut); on bare clouds the estimated normals of walls
+that nearly touch are turned the wrong way in patches, and the cut cost the pleats
+(0.026 -> 0.068 rad)."""
 
 MIN_MESHED = 0.5
 """The smallest share of the points the local mesh's main part must hold."""
@@ -297,8 +308,8 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
         ``X[~exclude]``), when already found.
     bridges : bool
         Cut the bridges between sheets where that lowers the repaired mesh's genus
-        (:func:`pcgeom.maps.bridges.cut_bridges`). Off in every run: measured in
-        :mod:`pcgeom.maps.bridges`, it helps some samplings of the lips sheet and costs others.
+        (:func:`pcgeom.maps.bridges.cut_bridges`). Runs ask for it when the cloud came with
+        its normals (:func:`mesh_cloud`, :data:`BRIDGES_WITH_INPUT_NORMALS`).
 
     Returns
     -------
@@ -379,7 +390,7 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
                normal_neighbours: int, *, progress: bool,
                normal_scales: tuple[int, ...] = (6, 8, 12, 16, 24),
                normal_tolerance: float = 0.03, outlier: np.ndarray | None = None,
-               closed: bool = False, onto: str | None = "free"
+               closed: bool = False, onto: str | None = "free", bridges: bool | None = None
                ) -> tuple[LocalMesh, np.ndarray, dict]:
     """Outliers, the surface test, normals and the local mesh of a normalized cloud.
 
@@ -402,6 +413,9 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     onto : str or None
         The planar domain the map is for (its name in the message): a closed cloud is
         refused (:func:`pcgeom.maps.topology.require_open`). None: no test.
+    bridges : bool or None
+        Cut the bridges between sheets (:func:`local_mesh`); None: when ``normals`` are
+        given (:data:`BRIDGES_WITH_INPUT_NORMALS`).
 
     Returns
     -------
@@ -447,7 +461,10 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
         normals = np.zeros_like(Xn)
         normals[inliers] = orient_normals(Xi, estimated, normal_neighbours, knn=knn)
     del estimated, Xi
-    mesh = local_mesh(Xn, normals, neighbours, exclude=outlier, progress=progress, knn=knn)
+    if bridges is None:
+        bridges = BRIDGES_WITH_INPUT_NORMALS and source == "input"
+    mesh = local_mesh(Xn, normals, neighbours, exclude=outlier, progress=progress, knn=knn,
+                      bridges=bridges)
     del knn
     meshed = float(mesh.main.mean())
     if meshed < MIN_MESHED:
