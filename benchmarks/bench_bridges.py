@@ -281,6 +281,11 @@ def main(argv=None) -> None:
           "kept bare": "-", **r} for r in diagnosis])
     lines += ["", "### Oracle: every true bridge cut before the repair", ""]
     lines += harness.table(maps("runs / oracle"), oracle)
+    lines += ["", "With its normals, the oracle keeps the rounded folds on the flat (unmeshed "
+              "points barely move) and leaves flipped mostly the triangles where the folds "
+              "taper off, narrower than the sampling, where LSCM on the true mesh flips too; "
+              "bare, the estimated normals are turned the wrong way in patches, and cutting "
+              "every bridge cuts the folds off."]
     lines += ["", "### The rule of pcgeom.maps.bridges (opposite corner normals, cut where "
               "that lowers the repaired genus), off and on in every build", "",
               "Runs cut bridges when the cloud has normals, not bare "
