@@ -337,13 +337,15 @@ def verdicts(reach, off, big, car, free) -> list[str]:
     a = next((r for r in car if r["code"] == "after"), None)
     b = next((r for r in car if r["code"] == "before"), None)
     if a and b:
-        ok = (med(a["runs"], "rad") <= med(b["runs"], "rad")
-              and med(a["runs"], "flipped") <= med(b["runs"], "flipped")
-              and med(a["runs"], "wall_s") < med(b["runs"], "wall_s"))
-        lines.append(f"- the car: {med(b['runs'], 'rad'):.4f} -> {med(a['runs'], 'rad'):.4f} rad, "
-                     f"{med(b['runs'], 'flipped'):.0f} -> {med(a['runs'], 'flipped'):.0f} "
-                     f"flipped, {med(b['runs'], 'wall_s'):.1f} -> {med(a['runs'], 'wall_s'):.1f}"
-                     f" s: {mark(ok)}")
+        # The same shells (the before seeds lead the after ones: --seeds 0 1 2, --before-seeds 0).
+        same = a["runs"][:len(b["runs"])]
+        ok = (med(same, "rad") <= med(b["runs"], "rad")
+              and med(same, "flipped") <= med(b["runs"], "flipped")
+              and med(same, "wall_s") < med(b["runs"], "wall_s"))
+        lines.append(f"- the car, the same shells: {med(b['runs'], 'rad'):.4f} -> "
+                     f"{med(same, 'rad'):.4f} rad, {med(b['runs'], 'flipped'):.0f} -> "
+                     f"{med(same, 'flipped'):.0f} flipped, {med(b['runs'], 'wall_s'):.1f} -> "
+                     f"{med(same, 'wall_s'):.1f} s: {mark(ok)}")
     plain = [r for r in free if not r.get("swap")]
     ok_ratio = all(x["rad"] <= FREE_RATIO * x["igl_rad"] for r in plain for x in r["runs"]
                    if "rad" in x)
