@@ -187,7 +187,7 @@ def scale_ladder(scales, n: int) -> np.ndarray:
     return np.array(sorted({min(int(k), n - 1) for k in scales}), dtype=np.int64)
 
 
-RULES = ("flattest", "one_sheet", "own_sheet", "smallest_planar")
+RULES = ("flattest", "one_sheet", "own_sheet", "smallest_planar", "consistent")
 """How :func:`adaptive_pca` may pick a point's scale (its ``rule``); the first is the default,
 the others were measured against it (issue 39) and are kept for ``benchmarks/bench_folds.py``."""
 
@@ -232,12 +232,18 @@ def adaptive_pca(X, scales=(6, 8, 12, 16, 24), tolerance: float = 0.03,
         first two-sheeted one (:func:`_one_sheet`; the smallest when that one is);
         ``"own_sheet"``, each scale's neighbours on the point's own sheet only
         (:func:`own_sheet`); ``"smallest_planar"``, the smallest one-sheeted scale within
-        ``tolerance`` of the flattest one-sheeted one. On the deep-fold sheet
+        ``tolerance`` of the flattest one-sheeted one; ``"consistent"``, the flattest
+        scale's PCA again with each neighbour weighted by how well its own normal agrees,
+        ``|n_i . n_j| ** 8`` (:func:`_consistent`). On the deep-fold sheet
         (:func:`pcgeom.synthetic_folds.deep_folds`, walls 1.5-3 spacings apart) the first two
         map as the flattest does (within 0.0003 rad); the smallest planar scale maps better
         there (0.0111 against 0.0134 rad at 3 spacings) but face_human_choi at 0.0515 rad
         against 0.0312, and the pleat 1.5 spacings wide at 0.0505 against 0.0266; one
-        sheet maps that pleat at 0.0369. What turned the deep folds over was the noise
+        sheet maps that pleat at 0.0369. Consistency weights map the grooves best (1.5 / 2 /
+        3 spacings: 0.0160 / 0.0122 / 0.0091 against 0.0217 / 0.0112 / 0.0134) but that
+        pleat at 0.0422 and 0.63% flipped (0.34%), face_human_choi 0.0330 against 0.0304,
+        peaks_three_cgal 0.30% flipped against 0.19% (powers 2 and 4 worse on the grooves
+        and no better elsewhere). What turned the deep folds over was the noise
         estimate reading the facing wall (:func:`own_sheet`), not the scale.
 
     Returns
@@ -278,7 +284,7 @@ def adaptive_pca(X, scales=(6, 8, 12, 16, 24), tolerance: float = 0.03,
         C6 = S2 - S1[..., iu[0]] * S1[..., iu[1]] / m
         var = _smallest_eigenvalue(C6) / np.maximum(C6[..., [0, 3, 5]].sum(axis=-1), 1e-300)
         per_scale[s:s + chunk] = var
-        if rule in ("flattest", "own_sheet"):
+        if rule in ("flattest", "own_sheet", "consistent"):
             ok = var <= var.min(axis=1, keepdims=True) + tolerance
         else:
             one = _one_sheet(P, C6, ks)
@@ -297,7 +303,26 @@ def adaptive_pca(X, scales=(6, 8, 12, 16, 24), tolerance: float = 0.03,
         variation[s:s + chunk] = values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)
         normals[s:s + chunk] = vectors[:, :, 0]
         chosen[s:s + chunk] = ks[pick]
+    if rule == "consistent":
+        normals = _consistent(X, nb, normals, chosen)
     return variation, normals, chosen, per_scale
+
+
+def _consistent(X, nb, normals, chosen, power: float = 8.0):
+    """Each normal again: the PCA of its chosen scale's neighbours, each weighted by
+    ``|n_i . n_j| ** power`` (how well its own normal agrees)."""
+    out = np.empty_like(normals)
+    K = nb.shape[1]
+    for s in range(0, len(X), 50_000):
+        rows = nb[s:s + 50_000]
+        P = X[rows] - X[rows[:, :1]]
+        w = np.abs(np.einsum("nd,nkd->nk", normals[s:s + 50_000], normals[rows])) ** power
+        w = w * (np.arange(K)[None, :] <= chosen[s:s + 50_000, None])
+        c = np.einsum("nk,nkd->nd", w, P) / w.sum(axis=1, keepdims=True)
+        Q = P - c[:, None]
+        C = np.einsum("nk,nki,nkj->nij", w, Q, Q)
+        out[s:s + 50_000] = np.linalg.eigh(C)[1][:, :, 0]
+    return out
 
 
 def own_sheet(P: np.ndarray, near: int = 8) -> np.ndarray:

@@ -1,0 +1,128 @@
+"""The normal-estimate rules of a bare cloud side by side (issue 39), for bench_folds.py.
+
+Each rule maps every surface in this process with the ``fast`` preset, bare, as
+``pcgeom.parametrize`` does, the rule put in place of today's for the run
+(:func:`pcgeom.neighbours.adaptive_pca`'s ``rule``, the normal scales, and the noise estimate's
+own-sheet test, :func:`pcgeom.denoise.own_sheet`); angle distortion and flips on the true
+triangles. ``python benchmarks/folds_rules.py`` prints the table alone.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import functools
+import sys
+import warnings
+
+import harness as H
+import numpy as np
+
+RULES = {
+    "before (issue 25): 16 neighbours, noise read across sheets": ((16,), "flattest", False),
+    "adaptive, flattest scale, noise read across sheets": (None, "flattest", False),
+    "adaptive, flattest scale; noise on the own sheet": (None, "flattest", True),
+    "adaptive, flattest one-sheeted scale; noise on the own sheet": (None, "one_sheet", True),
+    "adaptive, flattest scale of the own sheet's points; noise on the own sheet": (
+        None, "own_sheet", True),
+    "smallest planar one-sheeted scale; noise on the own sheet": (None, "smallest_planar",
+                                                                   True),
+    "flattest scale, neighbours weighted by their normals' agreement; noise on the own sheet": (
+        None, "consistent", True),
+}
+"""Name: (normal scales or None for the preset's, adaptive_pca rule, own-sheet noise)."""
+
+DEEP_GAPS = (0.5, 1.0, 1.5, 2.0, 3.0)
+PLEAT_GAPS = (1.5, 2.0, 2.5)
+SHARED = ("face_3holes_small_choi", "face_human_choi", "peaks_7holes_choi", "peaks_three_cgal")
+
+
+@contextlib.contextmanager
+def rule_in_place(rule: str, own_sheet: bool):
+    """``pcgeom.parametrize`` with ``rule`` for the normal scale and with or without the
+    noise estimate's own-sheet test, for the duration."""
+    import pcgeom.denoise as D
+    import pcgeom.maps.localmesh as LM
+    from pcgeom import neighbours as NB
+
+    saved = LM.adaptive_pca, D.own_sheet
+    LM.adaptive_pca = functools.partial(NB.adaptive_pca, rule=rule)
+    if not own_sheet:
+        D.own_sheet = lambda P, near=8: np.ones(P.shape[:2], dtype=bool)
+    try:
+        yield
+    finally:
+        LM.adaptive_pca, D.own_sheet = saved
+
+
+def surfaces(points: int, seeds):
+    """(case, V, F, exact uv or None) of every surface measured."""
+    from pcgeom.synthetic import pleated_sheet
+    from pcgeom.synthetic_folds import deep_folds
+
+    for gap in DEEP_GAPS:
+        for seed in seeds:
+            s = deep_folds(points, gap=gap, seed=seed)
+            yield f"deep folds, walls {gap:g} spacings apart", s.points, s.faces, s.uv_true
+    for gap in PLEAT_GAPS:
+        for seed in seeds:
+            s = pleated_sheet(points, folds=4, gap=gap, seed=seed)
+            yield f"pleat, sheets {gap:g} spacings apart", s.points, s.faces, s.uv_true
+    for name in SHARED:
+        if H.available(name):
+            s = H.load_surface(name)
+            yield name, s.V, s.F, None
+
+
+def measure(points: int = 6000, seeds=(0,)) -> list[dict]:
+    """One row per (surface, rule): medians over the seeds (synthetic surfaces)."""
+    import pcgeom
+
+    fast = pcgeom.get_preset("fast")
+    runs: dict[tuple[str, str], list[dict]] = {}
+    exact: dict[str, list[dict]] = {}
+    for case, V, F, uv in surfaces(points, seeds):
+        if uv is not None:
+            exact.setdefault(case, []).append({"seed": 0, "wall_s": 0.0,
+                                               **H.score_map(uv, V, F)})
+        for name, (scales, rule, own) in RULES.items():
+            config = fast if scales is None else dataclasses.replace(
+                fast, local_mesh=dataclasses.replace(fast.local_mesh, normal_scales=scales))
+            with rule_in_place(rule, own), warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                try:
+                    result, seconds = H.timed(pcgeom.parametrize, V, config=config, seed=0,
+                                              progress=False)
+                    run = {"seed": 0, "wall_s": seconds, **H.score_map(result.uv, V, F)}
+                except pcgeom.InputError as err:
+                    run = {"seed": 0, "wall_s": float("nan"), "error": str(err)}
+            runs.setdefault((case, name), []).append(run)
+            H.log(f"{case} / {name}: {run.get('rad', run.get('error'))}")
+    rows = []
+    for (case, name), rs in runs.items():
+        rows.append(H.summary(rs, case=case, rule=name, points=points))
+    for case, rs in exact.items():
+        rows.append(H.summary(rs, case=case, rule="the exact map (`uv_true`)"))
+    order = list(dict.fromkeys(r["case"] for r in rows))
+    return sorted(rows, key=lambda r: order.index(r["case"]))
+
+
+def _cell(row, key, fmt):
+    if row.get("n_ok") == 0:
+        return "failed: " + row["errors"][0][1][:40]
+    return format(row[key], fmt)
+
+
+def render(rows) -> list[str]:
+    return H.table([("surface", "{case}"), ("rule", "{rule}"), ("runs", "{runs}"),
+                    ("mean abs angle, rad", lambda r: _cell(r, "rad", ".4f")),
+                    ("flipped", lambda r: _cell(r, "flip_pct", ".2f") + "%")], rows)
+
+
+if __name__ == "__main__":
+    p = H.parser(__doc__)
+    p.add_argument("--seeds", nargs="*", type=int, default=[0])
+    p.add_argument("--points", type=int, default=6000)
+    args = p.parse_args()
+    print("\n".join(render(measure(args.points, args.seeds))))
+    sys.exit(0)
