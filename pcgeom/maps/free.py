@@ -433,8 +433,9 @@ def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,
         from ..metrics import hausdorff
         from .free_landmarks import pinned_free
 
-        uv, record["free_landmarks"] = pinned_free(Xn, mesh, uv, landmarks,
-                                                   weight=settings.free_landmark_weight)
+        uv, record["free_landmarks"] = pinned_free(
+            Xn, mesh, uv, landmarks, weight=settings.free_landmark_weight,
+            robust=(settings.robust_rounds, settings.robust_scale, settings.robust_floor))
         record["landmark_hausdorff"] = [hausdorff(uv[i], q) for i, q in landmarks]
     lam_inv = conformal_factor(Xn, uv)
     if settings.refine_steps > 0 and not landmarks:
