@@ -31,6 +31,7 @@ short as false loops), but the empty circle at the fill's centre is that of the 
 Measured (bare / file normals): peaks_7holes_choi 11 / 11 loops after the re-mesh alone, 9 /
 10 with the ears (its 7 holes and the rim kept; without the empty-circle test one hole was
 filled, 8 / 7).
+The ears' step is off by default (:data:`REFILL_EARS`): it costs maps elsewhere.
 """
 
 from __future__ import annotations
@@ -40,6 +41,14 @@ import numpy as np
 from ..mesh import half_edges as _directed
 
 __all__ = ["refill_small_loops"]
+
+REFILL_EARS = False
+"""Whether a small loop no re-mesh closes loses its ears and gets the flat fill of the loop
+alone (:func:`_ear_fill`). Off: measured side by side, the ears' fills cost maps that the
+loop counts do not pay for: face_human_choi's bare disk map 813 -> 823 true triangles
+flipped; a planar ring (12 rings of a 48-gon, r 0.4-1) onto annulus:auto 0.0082 -> 0.0318
+from the domain, 3 -> 5 flipped, 0.0179 -> 0.0206 rad. On, peaks_7holes_choi reads 9 / 10
+loops (bare / file normals) instead of 11 / 11 (true 8)."""
 
 REFILL_ROUNDS = 2
 """Rounds of re-meshing (a round's regions are disjoint; one next to a region re-meshed in
@@ -337,7 +346,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                     done |= members
                     closed += len(members)
                     break
-        for k in range(len(small)):
+        for k in range(len(small) if REFILL_EARS else 0):
             if k in done:
                 continue
             got = _ear_fill(X, normals, faces, rim[small[k][1]], hsorted=hsorted, horder=horder)
