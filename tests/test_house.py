@@ -70,3 +70,19 @@ def test_the_barrier_map_imports_one_way():
                 # apps or cli).
                 assert not (node.module or "").startswith(("apps", "cli", "run", "domain")), \
                     f"{name} imports {'.' * node.level}{node.module}"
+
+
+def test_every_benchmarks_section_is_known_to_the_harness():
+    """benchmarks/harness.py keeps the marked sections of BENCHMARKS.md it knows when
+    bench_param.py rewrites the top; a section missing from its SECTIONS would be dropped."""
+    import re
+
+    root = PACKAGE.parent
+    tree = ast.parse((root / "benchmarks" / "harness.py").read_text(encoding="utf-8"))
+    sections = next(ast.literal_eval(node.value) for node in tree.body
+                    if isinstance(node, ast.Assign)
+                    and any(getattr(t, "id", None) == "SECTIONS" for t in node.targets))
+    marked = re.findall(r"<!-- (\S+): begin -->",
+                        (root / "BENCHMARKS.md").read_text(encoding="utf-8"))
+    assert marked and not set(marked) - set(sections), set(marked) - set(sections)
+    assert [s for s in sections if s in marked] == marked  # in file order
