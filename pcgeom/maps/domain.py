@@ -475,8 +475,8 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
 
     1. the conformal map of :func:`pcgeom.maps.riemann.riemann_onto`, its disk automorphism
        fitted to the landmarks by least squares (:mod:`pcgeom.maps.moebius`); when every
-       landmark set is within :data:`CONFORMAL_FIT` of its targets and it turns no triangle
-       of the local mesh over, that is the map;
+       landmark set is within :data:`CONFORMAL_FIT` of its targets, that is the map (with
+       the disk map's own folds, if any);
     2. else its linear bend (:mod:`pcgeom.maps.bend`: least conformal energy, one solve), when
        it turns over nothing, meets the landmarks and costs at most :data:`BEND_COST`;
     3. else :func:`pcgeom.maps.injective.injective_map` from step 1's map, with the landmark
@@ -499,14 +499,12 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
     U0, info = riemann_onto(X, mesh.faces, disk_uv, domain, landmarks=landmarks,
                             bend=bend if linear else None)
     fit = max(hausdorff(U0[i], q) for i, q in landmarks)
-    if fit <= tolerance and not mesh_flips(X, mesh, U0)["count"]:
+    if fit <= tolerance:
         # The targets are where a conformal map (or a bend that folds nothing new) puts the
-        # landmarks, and it turns no triangle of the local mesh over: that map is the answer.
-        # One that folds goes to the barrier map below, which cannot: measured on targets an
-        # automorphism reaches (3 seeds, side by side), peaks_three_cgal 10 -> 2 true
-        # triangles flipped (0.27% -> 0.05%) at 0.99-1.03x -> 1.02-1.07x the landmark-free
-        # angle error; face_3holes_small_choi 0.98-1.10x -> 1.03-1.16x, its one flipped true
-        # triangle kept either way (untangling alone: 2.2x).
+        # landmarks: that map is the answer, with the disk map's own folds if it has any (the
+        # barrier map would mend them at a cost in angles everywhere: face_3holes_small_choi
+        # 1.10x -> 1.15x the landmark-free angle error, its one flipped true triangle kept;
+        # untangling alone, 2.2x).
         return U0, {**info, "bend": "linear" if info.get("linear_bend", {}).get("used")
                     else "none"}
     info["bend"] = "barrier"
