@@ -27,9 +27,9 @@ import math
 import numpy as np
 
 __all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_ids",
-           "unique_edges", "euler_characteristic", "close_loops", "compact", "mean_edge", "edge_sides", "unpaired", "boundary_loops", "main_part",
-           "main_faces", "face_keys", "smaller_fans", "one_fan", "peel_rim", "RIM_ANGLE_DEG",
-           "RIM_ANGLE"]
+           "unique_edges", "euler_characteristic", "close_loops", "compact", "mean_edge",
+           "edge_sides", "unpaired", "boundary_loops", "main_part", "main_faces", "face_keys",
+           "smaller_fans", "one_fan", "peel_rim", "RIM_ANGLE_DEG", "RIM_ANGLE"]
 
 RIM_ANGLE_DEG = 120.0
 """A rim triangle whose angle opposite its boundary edge is wider than this (degrees) is a

@@ -112,8 +112,9 @@ def find_outliers(X, neighbours: int = 16, *, knn: Neighbours | None = None
       statistical outlier test of PCL and Open3D, with a robust and local scale: scans are
       denser in some places than others);
     - **off the surface**: its height over the least-squares quadric of its ``neighbours``
-      nearest points (itself excluded, in their principal frame) exceeds :data:`OFFSET_FACTOR` times the median
-      nearest-neighbour spacing. Noise of about the spacing, and the other sheet of a fold
+      nearest points (itself excluded, in their principal frame) exceeds :data:`OFFSET_FACTOR` times
+      the median nearest-neighbour spacing. Noise of about the spacing, and the other sheet of a
+      fold
       (which pulls the plane half-way), stay below it.
 
     Parameters

@@ -288,8 +288,9 @@ def holed_sheet(n: int = 6000, *, radii: tuple[float, ...] = (1.0, 2.0, 3.0, 4.0
     F = _domain_delaunay(P, outside_holes)
     z = 0.15 * side * np.sin(P[:, 0] / side * 3.0) * np.cos(P[:, 1] / side * 2.0)
     X = np.column_stack([P, z])
-    grad = np.column_stack([0.15 * 3.0 * np.cos(P[:, 0] / side * 3.0) * np.cos(P[:, 1] / side * 2.0),
-                            -0.15 * 2.0 * np.sin(P[:, 0] / side * 3.0) * np.sin(P[:, 1] / side * 2.0)])
+    a, b = P[:, 0] / side * 3.0, P[:, 1] / side * 2.0
+    grad = np.column_stack([0.15 * 3.0 * np.cos(a) * np.cos(b),
+                            -0.15 * 2.0 * np.sin(a) * np.sin(b)])
     N = np.column_stack([-grad, np.ones(len(P))])
     N /= np.linalg.norm(N, axis=1, keepdims=True)
     F = _orient(X, N, F)

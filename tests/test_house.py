@@ -86,3 +86,13 @@ def test_every_benchmarks_section_is_known_to_the_harness():
                         (root / "BENCHMARKS.md").read_text(encoding="utf-8"))
     assert marked and not set(marked) - set(sections), set(marked) - set(sections)
     assert [s for s in sections if s in marked] == marked  # in file order
+
+
+MAX_COLUMNS = 100
+
+
+def test_no_line_of_the_package_is_over_100_columns():
+    long = [f"{path.relative_to(PACKAGE.parent)}:{k}" for path in _sources()
+            for k, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+            if len(line) > MAX_COLUMNS]
+    assert not long, long

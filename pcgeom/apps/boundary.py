@@ -199,8 +199,8 @@ from ..mesh import shoelace, signed_areas, unique_edges
 from .loop_kinds import LoopJudge
 from .planar import delaunay, distinct_points, validate_map
 
-__all__ = ["BoundaryLoops", "detect_boundary", "unkept_holes", "local_spacing", "hole_width", "DEFAULT_C",
-           "DEFAULT_MIN_LOOP", "DEFAULT_MIN_WIDTH"]
+__all__ = ["BoundaryLoops", "detect_boundary", "unkept_holes", "local_spacing", "hole_width",
+           "DEFAULT_C", "DEFAULT_MIN_LOOP", "DEFAULT_MIN_WIDTH"]
 
 DEFAULT_C = 1.0
 """Factor of the default local rule: a triangle goes when its circumradius exceeds ``c`` times

@@ -24,10 +24,10 @@ from ..metrics import (AngleReport, angle_distortion, area_factor, domain_hausdo
 from .baselines import BASELINES, SPHERE_BASELINES
 
 __all__ = ["map_report", "angle_figures", "factor_figures", "landmark_hausdorff",
-           "EVALUATION_BASELINES", "SPHERE_EVALUATION_BASELINES",
-           "BaselineRun", "run_baselines", "Evaluation", "evaluate_map",
-           "vertex_angle_distortion", "PLOT_FILES", "has_losses", "plot_evaluation", "plot_angle_histograms",
-           "mesh_holes", "domain_holes", "hole_landing", "hole_landmarks", "HOLE_TARGET_SPACING"]
+           "EVALUATION_BASELINES", "SPHERE_EVALUATION_BASELINES", "BaselineRun", "run_baselines",
+           "Evaluation", "evaluate_map", "vertex_angle_distortion", "PLOT_FILES", "has_losses",
+           "plot_evaluation", "plot_angle_histograms", "mesh_holes", "domain_holes",
+           "hole_landing", "hole_landmarks", "HOLE_TARGET_SPACING"]
 
 ANGLE_KEYS = ("mean_abs_angle_rad", "median_abs_angle_rad", "p95_abs_angle_rad",
               "max_abs_angle_rad", "flipped", "n_faces", "flipped_percent", "flipped_where")

@@ -32,14 +32,15 @@ them. So the candidates are cast wide (the map's local rule and the cloud's own 
   meet has a rim whose normals disagree: its kind is less certain).
 
 A loop that is not the outer one is a ``hole`` when ``empty_ratio >= HOLE_RATIO`` and
-``roundness >= HOLE_ROUNDNESS``, or ``empty_ratio >= SURE_RATIO``, else a ``gap``; a counter-clockwise loop inside a hole (an
-island) keeps the kind ``outer``, one inside a gap goes with the gap. ``confidence`` is
+``roundness >= HOLE_ROUNDNESS``, or ``empty_ratio >= SURE_RATIO``, else a ``gap``; a
+counter-clockwise loop inside a hole (an island) keeps the kind ``outer``, one inside a gap goes
+with the gap. ``confidence`` is
 ``(1 - exp(-|ln q| / CONFIDENCE_SCALE)) * (1 + normals_agree) / 2`` with ``q =
 max(min(empty_ratio / HOLE_RATIO, roundness / HOLE_ROUNDNESS), empty_ratio / SURE_RATIO)``
 (a hole when ``q >= 1``): near the thresholds, or where
 normals disagree, it is low. The outer loop (the rim of the kept triangles, always there):
-``(1 + normals_agree) / 2``. A gap's triangles go back into the kept ones (the surface spans it), so it leaves no
-loop; it is listed apart with its evidence.
+``(1 + normals_agree) / 2``. A gap's triangles go back into the kept ones (the surface spans it), so
+it leaves no loop; it is listed apart with its evidence.
 
 Measured on the ``fast`` maps of the shared surfaces (loops of 8 points or more; true loops
 from their meshes), each candidate's ``empty_ratio`` / ``roundness`` on the local figure

@@ -392,7 +392,8 @@ def _draw_boundary(ax, U: np.ndarray, found, legend: bool) -> None:
     (outer loop black), dropped loops dotted grey."""
     from matplotlib.collections import LineCollection
 
-    for tris, colour, alpha in ((found.triangles, "0.55", 0.5), (found.removed, "tab:orange", 0.25)):
+    for tris, colour, alpha in ((found.triangles, "0.55", 0.5),
+                                (found.removed, "tab:orange", 0.25)):
         if len(tris):
             segs = U[half_edges(tris)]
             ax.add_collection(LineCollection(segs, colors=colour, linewidths=0.3, alpha=alpha))

@@ -153,8 +153,9 @@ def load_free_map(args, points, purpose: str, domain=None, hint: str = "",
     ------
     InputError
         Anything ``ParamResult.load`` refuses, a map of another cloud with as many points
-        (fingerprint), a cut map (``--cut auto``: seams), a map trained onto a bounded domain (``purpose`` needs a free one;
-        ``hint`` ends the message), or, with ``domain``, a map onto another domain or a free
+        (fingerprint), a cut map (``--cut auto``: seams), a map trained onto a bounded domain
+        (``purpose`` needs a free one; ``hint`` ends the message), or, with ``domain``, a map onto
+        another domain or a free
         map.
     """
     from ..cloud import fingerprint

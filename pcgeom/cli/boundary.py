@@ -47,12 +47,13 @@ LOOPS.json holds {{"loops": [[i0, i1, ...], ...], "h": ..., ...}}: each loop as 
 (from 0), outer loop first (counter-clockwise in the map), then the holes by size. Without
 --h, triangles are judged against the local point spacing of the map, which needs no scale
 (see pcgeom.apps.boundary). Without --map the cloud is mapped as 'pcgeom param INPUT' maps it
-(preset fast, seed 0, the file's normals unless --normals ignore). Loops of fewer than {DEFAULT_MIN_LOOP} points are dropped as sampling gaps.
-Each loop is judged by its evidence in 3D (its own largest empty circle against the widest
-the sampling leaves around it, its roundness, its rim's normals; pcgeom.apps.loop_kinds) and
-gets a kind (outer, hole) and a confidence in [0, 1]; loops the evidence calls gaps of the
-sampling are spanned by the surface and listed apart ("gaps", "gap_evidence"); --every-loop
-keeps every loop of the map's rule instead (as --h does).
+(preset fast, seed 0, the file's normals unless --normals ignore).
+Loops of fewer than {DEFAULT_MIN_LOOP} points are dropped as sampling gaps. Each loop is judged
+by its evidence in 3D (its own largest empty circle against the widest the sampling leaves
+around it, its roundness, its rim's normals; pcgeom.apps.loop_kinds) and gets a kind (outer,
+hole) and a confidence in [0, 1]; loops the evidence calls gaps of the sampling are spanned by
+the surface and listed apart ("gaps", "gap_evidence"); --every-loop keeps every loop of the
+map's rule instead (as --h does).
 Each hole's width on the surface (its 3D inradius estimate over the local point spacing) is
 reported; --min-width drops the narrower ones. Faces in INPUT never make loops (they shape the
 map only, as in 'pcgeom param').
@@ -201,7 +202,8 @@ def run(args) -> int:
         print(f"  {len(found.gaps)} sampling gap(s) set apart (spanned by the surface; "
               f"'gaps' in {summary['out']})")
     if found.dropped:
-        narrower = f" or holes narrower than {found.min_width:g} spacings" if found.min_width else ""
+        narrower = (f" or holes narrower than {found.min_width:g} spacings" if found.min_width
+                    else "")
         print(f"  {len(found.dropped)} loop(s) of fewer than {found.min_loop} points{narrower} "
               "dropped")
     return EXIT_OK

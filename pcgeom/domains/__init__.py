@@ -1,7 +1,8 @@
 """Parameter domains: 2D regions the cloud is mapped onto, looked up by a spec.
 
-A spec is a name (``"free"``, ``"disk"``, ``"smile"``, ``"sphere"``: the one closed domain), a name with values for the domain's
-``spec_args`` (``"disk:0.5"``: the disk of radius 0.5; ``"rect:2"``: aspect 2), the path of a
+A spec is a name (``"free"``, ``"disk"``, ``"smile"``, ``"sphere"``: the one closed domain), a name
+with values for the domain's ``spec_args`` (``"disk:0.5"``: the disk of radius 0.5; ``"rect:2"``:
+aspect 2), the path of a
 GeoJSON-style polygon file (``"room.json"``) or of a binary image mask (``"shape.png"``), a
 dict ``{"name": ..., **parameters}`` (what result files store, from :meth:`Domain.to_dict`), or
 a :class:`Domain` itself. New domains register their class in :data:`DOMAINS`.

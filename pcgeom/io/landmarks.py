@@ -84,7 +84,8 @@ def _array(value, shape_tail: tuple[int, ...], where: str, what: str) -> np.ndar
     return A
 
 
-def _landmark_indices(pair: dict, where: str, points: np.ndarray, tree, spacing: float) -> np.ndarray:
+def _landmark_indices(pair: dict, where: str, points: np.ndarray, tree,
+                      spacing: float) -> np.ndarray:
     if ("indices" in pair) == ("points" in pair):
         raise InputError(f"{where}: give exactly one of 'indices' or 'points'")
     n = len(points)

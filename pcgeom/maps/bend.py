@@ -5,8 +5,9 @@ After the disk automorphism of :mod:`pcgeom.maps.moebius`, what the landmarks st
 a deformation that no conformal map makes. This one is of least conformal energy (libigl's
 LSCM form, ``E(u) = 1/2 u^T (-L (+) -L) u - u^T A u``: the squared anti-conformal part
 ``|d u / d conj(z)|^2`` integrated over the surface's triangles, zero exactly for a conformal
-map oriented as the triangles) of the offset from the disk map, plus ``w`` times the squared distances of the landmark points
-to their targets, with the rim sliding along the unit circle (to first order: each rim vertex
+map oriented as the triangles) of the offset from the disk map, plus ``w`` times the squared
+distances of the landmark points to their targets, with the rim sliding along the unit circle (to
+first order: each rim vertex
 moves along the circle's tangent, then back onto the circle along its radius). The map is
 linear in the landmarks' offsets, so a small offset gives a small bend spread over the whole
 surface, and no triangle turns over unless the offsets are large against the mesh's spacing;

@@ -51,7 +51,8 @@ SMOOTH = 3
 
 SLIT_GAIN = 1.25
 """A slit is kept when it divides the chart's spread by at least this much (or leaves a chart
-that overlaps, which is then split); otherwise the chart before it is split instead (a slit to the shrunk tip of a finger divides it by
+that overlaps, which is then split); otherwise the chart before it is split instead (a slit to the
+shrunk tip of a finger divides it by
 hundreds; on a long chart with no tip, slits hardly change it)."""
 
 DEPTH = 6

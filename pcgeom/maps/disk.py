@@ -30,8 +30,8 @@ def _planar_mesh(P: np.ndarray, loop: np.ndarray) -> np.ndarray:
     circle. Keeping the triangles whose centroid is inside instead cut those notches: on
     face_human_choi the mapped true surface then missed the circle by 0.019 (0.013 with this
     test; with its normals 0.0195 -> 0.010), at the same angles. Then the flat rim triangles
-    over points just inside the loop are peeled (:func:`pcgeom.mesh.peel_rim`). Points on top of another
-    (qhull leaves them out) or outside the polygon belong to no triangle.
+    over points just inside the loop are peeled (:func:`pcgeom.mesh.peel_rim`). Points on top of
+    another (qhull leaves them out) or outside the polygon belong to no triangle.
     """
     import shapely
     from scipy.spatial import Delaunay

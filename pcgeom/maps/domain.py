@@ -64,7 +64,8 @@ from .refine import refine
 from .riemann import ROTATIONS, riemann_onto, simply_connected
 
 __all__ = ["domain_map", "annulus_radius", "resolve_domain", "harmonic_onto", "injective_onto",
-           "landmarks_onto", "align_onto", "Alignment", "ROTATIONS", "CONFORMAL_FIT", "MAX_PAIRINGS", "MIN_HOLE_RATIO"]
+           "landmarks_onto", "align_onto", "Alignment", "ROTATIONS", "CONFORMAL_FIT",
+           "MAX_PAIRINGS", "MIN_HOLE_RATIO"]
 
 MAX_PAIRINGS = 720
 """At most this many pairings of mesh holes with domain holes are tried (6 holes: all); above,

@@ -501,8 +501,8 @@ def mesh_flips(X: np.ndarray, mesh: LocalMesh, U: np.ndarray,
 
     Measured on the cloud's own mesh, as a run can (the reference mesh, when a user has one,
     is what ``pcgeom evaluate`` measures), without its rim slivers: a triangle on the rim
-    whose angle opposite its rim edge is wider than :data:`pcgeom.mesh.RIM_ANGLE` bridges a notch of the
-    rim, and the disk map sends the point under it onto the circle (it peels such triangles,
+    whose angle opposite its rim edge is wider than :data:`pcgeom.mesh.RIM_ANGLE` bridges a notch of
+    the rim, and the disk map sends the point under it onto the circle (it peels such triangles,
     :func:`pcgeom.mesh.peel_rim`), nor its flat triangles (an angle over 179 degrees:
     collinear points have no orientation). Counted, they turned over 63 of the three peaks'
     11313 triangles onto the disk, all on the rim, where the map of the true triangles turns

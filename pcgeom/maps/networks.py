@@ -44,7 +44,8 @@ def make_optimizer(params, config: OptimizerConfig) -> torch.optim.Optimizer:
     return torch.optim.Adam(params, lr=config.lr)
 
 
-def initial_plane(Xn: np.ndarray, domain: Domain, W: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor]:
+def initial_plane(Xn: np.ndarray, domain: Domain,
+                  W: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor]:
     """The (2, 3) linear term and (2,) offset that start f as the best-fit-plane projection.
 
     The projection onto the cloud's two principal directions is centred at the domain's
@@ -60,7 +61,8 @@ def initial_plane(Xn: np.ndarray, domain: Domain, W: torch.Tensor | None) -> tup
     return torch.tensor(plane, dtype=torch.float32), torch.tensor(centroid, dtype=torch.float32)
 
 
-def build_networks(config: ParamConfig, Xn: np.ndarray, domain: Domain, data: TrainData) -> Networks:
+def build_networks(config: ParamConfig, Xn: np.ndarray, domain: Domain,
+                   data: TrainData) -> Networks:
     """f, l and the optimizer, initialized from torch's global RNG (seeded by the caller)."""
     dev, dtype = data.X.device, data.X.dtype
     plane = offset = None

@@ -6,8 +6,9 @@ point spacing, but its normals point the other way (DESIGN.md, "What limits real
 A bare cloud has to estimate them:
 
 1. **PCA** (Hoppe et al., 1992): the normal at ``x_i`` is the direction of least variance of its
-   ``k`` nearest neighbours. It has no sign. :func:`pcgeom.maps.localmesh.mesh_cloud` takes each point's ``k``
-   from a ladder (6 to 24), the largest at which its neighbours lie nearly as flat as at the
+   ``k`` nearest neighbours. It has no sign. :func:`pcgeom.maps.localmesh.mesh_cloud` takes each
+   point's ``k`` from a ladder (6 to 24), the largest at which its neighbours lie nearly as flat as
+   at the
    flattest (:func:`pcgeom.neighbours.adaptive_pca`): noise asks for many neighbours, a fold whose
    facing sheet lies a couple of spacings away for few.
 2. **Orientation by propagation** (Hoppe et al.; the same idea as Open3D's

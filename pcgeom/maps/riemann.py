@@ -48,7 +48,8 @@ from ..errors import InputError
 from ..mesh import shoelace, signed_areas
 from .disk import _harmonic_measure_disk
 
-__all__ = ["DomainDisk", "CircleDisk", "domain_disk", "riemann_onto", "simply_connected", "snap_corners", "DOMAIN_MESH_POINTS", "ROTATIONS"]
+__all__ = ["DomainDisk", "CircleDisk", "domain_disk", "riemann_onto", "simply_connected",
+           "snap_corners", "DOMAIN_MESH_POINTS", "ROTATIONS"]
 
 DOMAIN_MESH_POINTS = 20_000
 """Interior points of the domain's mesh (about twice as many triangles)."""

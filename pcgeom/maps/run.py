@@ -114,8 +114,9 @@ def _nearest_rows(Xn: np.ndarray, points, targets) -> list:
 def choose_map(domain: Domain, config: ParamConfig, landmarks: bool) -> str:
     """Which map of :data:`MAPS` makes a run onto ``domain`` with ``config``.
 
-    The free boundary: ``config.free_map`` (with landmarks: ``"localmesh"`` only). A disk without landmarks: ``config.disk_map``
-    (laid and refined when ``local_mesh.disk_refine``). Any other bounded domain, and any
+    The free boundary: ``config.free_map`` (with landmarks: ``"localmesh"`` only). A disk without
+    landmarks: ``config.disk_map`` (laid and refined when ``local_mesh.disk_refine``). Any other
+    bounded domain, and any
     domain with landmarks: ``config.domain_map``. The sphere: ``"sphere"``.
 
     Raises

@@ -16,8 +16,8 @@ boundary into a folded planar map. This module measures the mesh's topology and 
    :data:`HOLE_MARGIN`, it is the bound of everything below: a rule of the sampling's own,
    the same on a jittered grid (tight) and on random points (a long tail).
 2. **Open or closed.** A boundary loop longer than a circle :data:`GROW_LOOP` times that
-   wide is a rim or a hole of the surface: the cloud is open. Then each loop (libigl's loops of the mesh
-   with its pinched vertices split, each cut at its repeated vertices into simple loops) is
+   wide is a rim or a hole of the surface: the cloud is open. Then each loop (libigl's loops of the
+   mesh with its pinched vertices split, each cut at its repeated vertices into simple loops) is
    filled where a fill no wider than the bound exists that lies flat: the Delaunay
    triangles, in the plane of the loop's normals, of its points and the unmeshed points
    inside it, or else its least-area triangulation in space (:func:`_least_area_fill`);
@@ -433,8 +433,9 @@ def _least_area_fill(X: np.ndarray, normals: np.ndarray, loop: np.ndarray,
                      edges: np.ndarray | None = None, folds: bool = False
                      ) -> np.ndarray | None:
     """The triangulation of the loop's polygon in space (no new point) of least total area,
-    triangles facing away from their corners' normals priced out (dynamic programming over the polygon's diagonals, O(k^3); Barequet and
-    Sharir's, as in Liepa's hole filling), oriented as the mesh (each loop edge the other way
+    triangles facing away from their corners' normals priced out (dynamic programming over the
+    polygon's diagonals, O(k^3); Barequet and Sharir's, as in Liepa's hole filling), oriented as the
+    mesh (each loop edge the other way
     round); no diagonal may be an edge of ``edges`` (the mesh's: ``a * N + b``, ``a < b``).
     None for loops of more than :data:`LEAST_AREA_LOOP` points (twice that with ``folds``),
     or when every triangulation

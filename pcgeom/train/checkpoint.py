@@ -3,7 +3,8 @@
 A checkpoint holds tensors, numbers, strings, lists and dicts only, and is loaded with
 ``torch.load(weights_only=True)``: a crafted ``.ckpt`` cannot execute anything, it fails to
 load. It also records the run's identity (the input's fingerprint, the config, the seed, the
-domain, the normals and the landmarks), and a run resumes only from a checkpoint of the same identity.
+domain, the normals and the landmarks), and a run resumes only from a checkpoint of the same
+identity.
 """
 
 from __future__ import annotations

@@ -40,10 +40,12 @@ class Stage:
         (lines 6, 11)."""
         if self.epochs <= 1:
             return self.alpha_initial
-        return self.alpha_initial + epoch * (self.alpha_final - self.alpha_initial) / (self.epochs - 1)
+        return (self.alpha_initial
+                + epoch * (self.alpha_final - self.alpha_initial) / (self.epochs - 1))
 
 
-def stage_plan(n_points: int, n_domain: int, schedule: ScheduleConfig, max_stages: int = 0) -> list[Stage]:
+def stage_plan(n_points: int, n_domain: int, schedule: ScheduleConfig,
+               max_stages: int = 0) -> list[Stage]:
     """The sequence of stages Algorithm 1 runs for a cloud of ``n_points``.
 
     Stages continue until the stage whose batch is the whole cloud has run

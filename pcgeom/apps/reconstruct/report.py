@@ -18,8 +18,8 @@ def mesh_report(V, F, points) -> dict:
     diagonal; a vertex between cloud points is up to half a spacing from every point even on
     the true surface), ``max_offset_spacings`` (the largest vertex-to-point distance in the
     cloud's median spacing, :func:`pcgeom.maps.topology.knn_spacing`: a vertex lifted over
-    the inliers stays within a spacing or so of them), ``min_angle_deg`` and ``max_aspect_ratio`` (circumradius over twice
-    the inradius, 1 for an equilateral triangle) of the triangles in 3D.
+    the inliers stays within a spacing or so of them), ``min_angle_deg`` and ``max_aspect_ratio``
+    (circumradius over twice the inradius, 1 for an equilateral triangle) of the triangles in 3D.
     """
     import igl
     from scipy.spatial import cKDTree

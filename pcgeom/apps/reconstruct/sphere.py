@@ -47,7 +47,8 @@ VERTICES_PER_POINT = 3
 screened Poisson at its default depth 8 makes of a clean closed cloud (2.8-3.3 vertices per
 point on 5k clouds of the sphere, ellipsoid, bumpy sphere and peanut, 1.7-3.2 on 20k ones,
 2.0 on closed_david_head_choi; depth 10: 2.8-3.3 on the analytic clouds), so that the
-default mesh is compared at the resolution of Poisson's default. At one vertex per point, Poisson was the closer on the 5k
+default mesh is compared at the resolution of Poisson's default. At one vertex per point, Poisson
+was the closer on the 5k
 analytic clouds (BENCHMARKS.md, bench_reconstruct_sphere)."""
 
 MAX_DEFAULT_VERTICES = 200_000
