@@ -571,6 +571,24 @@ def _serpentine(s: np.ndarray, run: float, radius: float, folds: int
     return np.column_stack([x, z]), np.column_stack([nx, nz]), np.where(on_run, k, -1)
 
 
+def even_rectangle(n: int, width: float, rng) -> tuple[np.ndarray, np.ndarray]:
+    """About ``n`` points of the rectangle [0, 1] x [0, width]: its sides sampled evenly at
+    the spacing ``sqrt(width / n)`` (the rim, ``(m, 2)``), and inside the square's R2
+    sequence stretched, less the samples closer than half a spacing to the rim's."""
+    from scipy.spatial import cKDTree
+
+    h = np.sqrt(width / n)
+    sides = []
+    for (x0, y0), (x1, y1) in (((0, 0), (1, 0)), ((1, 0), (1, width)),
+                               ((1, width), (0, width)), ((0, width), (0, 0))):
+        m = max(int(np.ceil(np.hypot(x1 - x0, y1 - y0) / h)), 1)
+        t = np.arange(m)[:, None] / m
+        sides.append([x0, y0] + t * [x1 - x0, y1 - y0])
+    rim = np.vstack(sides)
+    inside = ((_r2_square(n, rng) + 1.0) / 2.0) * [1.0, width]
+    return rim, inside[cKDTree(rim).query(inside)[0] > 0.5 * h]
+
+
 def pleated_sheet(n: int = 6000, folds: int = 4, gap: float = 2.0, *, width: float = 1.0,
                   seed: int = 0) -> PleatedSheet:
     """A sheet folded like an accordion: ``folds`` half-circle folds whose facing sheets lie
@@ -617,22 +635,12 @@ def pleated_sheet(n: int = 6000, folds: int = 4, gap: float = 2.0, *, width: flo
     gap, width = float(gap), float(width)
     if not gap > 0 or not width > 0:
         raise ValueError(f"gap, width: expected positive numbers, got {gap!r}, {width!r}")
-    from scipy.spatial import cKDTree
-
     rng = np.random.default_rng(seed)
     # The rectangle [0, 1] x [0, width]: its sides sampled evenly (so that the Delaunay
     # triangulation has no slivers along them), its inside by the square's R2 sequence
     # stretched, without the samples closer than half a spacing to a side's.
     h = np.sqrt(width / n)
-    sides = []
-    for (x0, y0), (x1, y1) in (((0, 0), (1, 0)), ((1, 0), (1, width)),
-                               ((1, width), (0, width)), ((0, width), (0, 0))):
-        m = max(int(np.ceil(np.hypot(x1 - x0, y1 - y0) / h)), 1)
-        t = np.arange(m)[:, None] / m
-        sides.append([x0, y0] + t * [x1 - x0, y1 - y0])
-    rim = np.vstack(sides)
-    inside = ((_r2_square(n, rng) + 1.0) / 2.0) * [1.0, width]
-    inside = inside[cKDTree(rim).query(inside)[0] > 0.5 * h]
+    rim, inside = even_rectangle(n, width, rng)
     inside = inside[(inside > 0.5 * h).all(axis=1) & (inside < [1.0, width] - 0.5 * h).all(axis=1)]
     uv = np.vstack([inside, rim])
     F = Delaunay(uv).simplices.astype(np.int64)

@@ -116,9 +116,9 @@ def deep_folds(n: int = 6000, *, gap: float = 1.5, depths=(3.0, 6.0, 10.0), lip:
         A bad argument, or grooves that leave flats shorter than 3 spacings (ask for more
         points or fewer, shallower grooves).
     """
-    from scipy.spatial import Delaunay, cKDTree
+    from scipy.spatial import Delaunay
 
-    from .synthetic import _r2_square
+    from .synthetic import even_rectangle
 
     n = int(n)
     depths = tuple(float(d) for d in depths)
@@ -132,17 +132,8 @@ def deep_folds(n: int = 6000, *, gap: float = 1.5, depths=(3.0, 6.0, 10.0), lip:
     if sampling not in SAMPLINGS:
         raise ValueError(f"sampling: expected one of {', '.join(SAMPLINGS)}, got {sampling!r}")
     rng = np.random.default_rng(seed)
-    h = np.sqrt(width / n)
     if sampling == "even":
-        sides = []
-        for (x0, y0), (x1, y1) in (((0, 0), (1, 0)), ((1, 0), (1, width)),
-                                   ((1, width), (0, width)), ((0, width), (0, 0))):
-            m = max(int(np.ceil(np.hypot(x1 - x0, y1 - y0) / h)), 1)
-            t = np.arange(m)[:, None] / m
-            sides.append([x0, y0] + t * [x1 - x0, y1 - y0])
-        rim = np.vstack(sides)
-        inside = ((_r2_square(n, rng) + 1.0) / 2.0) * [1.0, width]
-        inside = inside[cKDTree(rim).query(inside)[0] > 0.5 * h]
+        rim, inside = even_rectangle(n, width, rng)
         uv = np.vstack([inside, rim])
     else:
         uv = rng.uniform([0.0, 0.0], [1.0, width], (n, 2))

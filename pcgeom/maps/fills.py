@@ -97,27 +97,6 @@ REFILL_RINGS = (1, 2)
 """Rings of triangles round a loop's points that are re-meshed, tried in turn."""
 
 
-def _walks(F: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
-    """The boundary half-edges of ``F`` (B, 2) and its boundary loops as walks (each a list of
-    indices into them, in order; a pinched vertex may come twice)."""
-    from .topology import _rim_next
-
-    rim, following = _rim_next(F)
-    seen = np.zeros(len(rim), dtype=bool)
-    nxt = following.tolist()
-    walks = []
-    for first in range(len(rim)):
-        if seen[first]:
-            continue
-        walk, e = [], first
-        while not seen[e]:
-            seen[e] = True
-            walk.append(e)
-            e = nxt[e]
-        walks.append(np.asarray(walk, dtype=np.int64))
-    return rim, walks
-
-
 def _cycle(edges: np.ndarray) -> np.ndarray | None:
     """The vertices of the directed edges ``edges`` (k, 2) in order round their one simple
     cycle; None when they do not form exactly one."""
@@ -205,14 +184,14 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
     """
     from scipy.spatial import cKDTree
 
-    from .topology import enclosing_radius, fill_loop
+    from .topology import enclosing_radius, fill_loop, rim_walks
 
     n = len(X)
     closed = 0
     for _ in range(REFILL_ROUNDS):
         if not len(faces):
             break
-        rim, walks = _walks(faces)
+        rim, walks = rim_walks(faces)
         perimeter = np.linalg.norm(X[rim[:, 1]] - X[rim[:, 0]], axis=1)
         small = []
         for w in walks:

@@ -245,6 +245,25 @@ def _cycles(following: np.ndarray) -> int:
 # --------------------------------------------------------------------------- loops
 
 
+def rim_walks(F: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The boundary half-edges of ``F`` (B, 2) and its boundary loops as walks (each a list of
+    indices into them, in order; a pinched vertex may come twice)."""
+    rim, following = _rim_next(F)
+    seen = np.zeros(len(rim), dtype=bool)
+    nxt = following.tolist()
+    walks = []
+    for first in range(len(rim)):
+        if seen[first]:
+            continue
+        walk, e = [], first
+        while not seen[e]:
+            seen[e] = True
+            walk.append(e)
+            e = nxt[e]
+        walks.append(np.asarray(walk, dtype=np.int64))
+    return rim, walks
+
+
 def simple_loops(faces: np.ndarray) -> list[np.ndarray]:
     """The boundary loops of the edge-manifold, consistently oriented mesh ``faces`` (each
     fan of a pinched vertex keeps its own rim, :func:`_rim_next`), each cut at its repeated
@@ -253,21 +272,11 @@ def simple_loops(faces: np.ndarray) -> list[np.ndarray]:
     F = np.asarray(faces, dtype=np.int64)
     if len(F) == 0:
         return []
-    rim, following = _rim_next(F)
-    seen = np.zeros(len(rim), dtype=bool)
-    nxt = following.tolist()
-    start_of = rim[:, 0].tolist()
+    rim, walks = rim_walks(F)
     out = []
-    for first in range(len(rim)):
-        if seen[first]:
-            continue
-        walk, e = [], first
-        while not seen[e]:
-            seen[e] = True
-            walk.append(start_of[e])
-            e = nxt[e]
+    for walk in walks:
         if len(walk) >= 3:
-            out.extend(_cut_at_repeats(np.asarray(walk, dtype=np.int64)))
+            out.extend(_cut_at_repeats(rim[walk, 0]))
     return out
 
 
