@@ -29,7 +29,7 @@ import numpy as np
 __all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_ids",
            "unique_edges", "euler_characteristic", "close_loops", "compact", "mean_edge",
            "edge_sides", "unpaired", "boundary_loops", "main_part", "main_faces", "face_keys",
-           "smaller_fans", "one_fan", "peel_rim", "RIM_ANGLE_DEG", "RIM_ANGLE"]
+           "smaller_fans", "one_fan", "successor_walks", "peel_rim", "RIM_ANGLE_DEG", "RIM_ANGLE"]
 
 RIM_ANGLE_DEG = 120.0
 """A rim triangle whose angle opposite its boundary edge is wider than this (degrees) is a
@@ -149,18 +149,24 @@ def boundary_loops(F: np.ndarray) -> list[list[int]]:
     directed = half_edges(F)
     rim = directed[unpaired(directed)]
     following = dict(zip(rim[:, 0].tolist(), rim[:, 1].tolist()))  # the last edge from a
-    loops, seen = [], set()
+    return [loop for loop in successor_walks(following) if len(loop) >= 3]
+
+
+def successor_walks(following: dict) -> list[list[int]]:
+    """The walks of the map ``following`` (vertex -> next vertex), each from the first vertex
+    not yet seen (in the map's order) until a vertex comes back or has no successor: on the
+    edges of disjoint cycles, the cycles."""
+    walks, seen = [], set()
     for start in following:
         if start in seen:
             continue
-        loop, v = [], start
+        walk, v = [], start
         while v not in seen and v in following:
             seen.add(v)
-            loop.append(v)
+            walk.append(v)
             v = following[v]
-        if len(loop) >= 3:
-            loops.append(loop)
-    return loops
+        walks.append(walk)
+    return walks
 
 
 def main_part(F: np.ndarray, n: int) -> np.ndarray:

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh import half_edges as _directed
+from ..mesh import half_edges as _directed, successor_walks
 
 __all__ = ["refill_small_loops"]
 
@@ -145,18 +145,7 @@ def _pinches(edges: np.ndarray) -> np.ndarray:
     starts, count = np.unique(edges[:, 0], return_counts=True)
     if (count > 1).any():
         return starts[count > 1]
-    nxt = dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist()))
-    seen: set = set()
-    cycles = []
-    for v in nxt:
-        if v in seen:
-            continue
-        cycle, u = [], v
-        while u not in seen and u in nxt:
-            seen.add(u)
-            cycle.append(u)
-            u = nxt[u]
-        cycles.append(cycle)
+    cycles = successor_walks(dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist())))
     cycles.sort(key=len)
     return np.asarray([v for c in cycles[:-1] for v in c], dtype=np.int64)
 
