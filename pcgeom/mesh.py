@@ -148,7 +148,8 @@ def boundary_loops(F: np.ndarray) -> list[list[int]]:
     in the faces' direction: the outer loop counter-clockwise when the faces are)."""
     directed = half_edges(F)
     rim = directed[unpaired(directed)]
-    following = dict(zip(rim[:, 0].tolist(), rim[:, 1].tolist()))  # the last edge from a
+    # A vertex with two rim edges out (a pinch) keeps the last one.
+    following = dict(zip(rim[:, 0].tolist(), rim[:, 1].tolist()))
     return [loop for loop in successor_walks(following) if len(loop) >= 3]
 
 
