@@ -246,6 +246,19 @@ def test_more_roots_never_longer():
     assert euler_characteristic(Fc) == 1 and len(boundary_loops(Fc)) == 1
 
 
+def test_double_torus_short_seams():
+    """Genus 2 (the classic double torus, 1.5k points): the greedy homology-basis cut graph
+    opens it into one disk chart with no flip, seams at most 3 square roots of the area
+    (tree-cotree's loops through one root: 3.4 at 5k-20k)."""
+    from pcgeom.synthetic_atlas import pretzel
+
+    rec = parametrize(pretzel(2, 1500), cut="auto", progress=False).history[-1]
+    assert rec["seams"]["genus"] == 2 and rec["seams"]["cut"] == "short"
+    assert rec["cut_euler"] == 1 and rec["cut_loops"] == 1 and rec["flips"]["count"] == 0
+    assert rec["overlap_area"] < 1e-9 and rec["stretch"] <= 10
+    assert rec["seam_length"] <= 3.0
+
+
 def test_an_overlapping_chart_is_split(monkeypatch):
     """A chart whose boundary crosses itself is split into charts, each one-to-one, packed
     apart by xatlas; when nothing maps it (Tutte's embedding held to fail too), a one-line
@@ -259,7 +272,7 @@ def test_an_overlapping_chart_is_split(monkeypatch):
     def crossed(V, F):
         U, info = real(V, F)
         calls.append(len(F))
-        if len(calls) == 1:  # the first chart, the whole torus: its boundary made to cross
+        if len(F) == calls[0]:  # the whole torus, whichever cut: its boundary made to cross
             loop = np.asarray(boundary_loops(F)[0])
             U = U.copy()
             U[loop[0]] = U[loop[len(loop) // 2]] + (U[loop[len(loop) // 2]] - U.mean(axis=0))

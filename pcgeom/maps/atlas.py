@@ -6,10 +6,12 @@ and packed into the unit square (a texture atlas).
    leaves filled (as for the sphere map, :func:`pcgeom.maps.sphere.closed_mesh`, but of any
    genus).
 2. **Seams** (:mod:`pcgeom.maps.seams`): on a closed mesh of genus ``g >= 1``, the
-   tree-cotree cut graph of short loops; at genus 0, the shortest path between two far
-   points; an open mesh with handles or several boundary loops, the tree-cotree paths from
-   its boundary to its boundary (``2g + b - 1`` of them). An open mesh with one boundary loop
-   and no handle is a disk already: no seam.
+   shorter of the tree-cotree cut graph and the one reduced from a greedy shortest homology
+   basis (when that one's charts need slits or splits, the tree-cotree atlas is made too and
+   the one with the shorter seams kept, :func:`pcgeom.maps.charts.fit_charts`); at genus 0,
+   the shortest path between two far points; an open mesh with handles or several boundary
+   loops, the tree-cotree paths from its boundary to its boundary (``2g + b - 1`` of them).
+   An open mesh with one boundary loop and no handle is a disk already: no seam.
 3. **The charts** (:mod:`pcgeom.maps.charts`): the cut mesh's free LSCM map (``igl.lscm``,
    two boundary vertices far apart pinned), mirrored if it came out clockwise, untangled
    (:func:`pcgeom.maps.injective.untangle`) where it turns triangles over. A chart whose
@@ -56,11 +58,12 @@ MAX_STRETCH = 10.0
 """The default bound on a chart's scale-factor spread (95th over 5th percentile) for
 ``--max-stretch``: a chart over it gets slits, then is split (:mod:`pcgeom.maps.charts`)."""
 
-SEAM_ROOTS = 1
-"""Roots the tree-cotree cut graph tries (:func:`pcgeom.maps.seams.cut_graph`); the shortest
-cut is kept. Measured side by side (seams over sqrt(area), 1 / 4 / 8 roots): torus 5k 1.66 /
-1.66 / 1.65, genus-2 5k 3.36 / 3.33 / 3.33, genus-2 20k 3.44 / 3.44 / 3.44, at up to 20% more
-time: one root."""
+SEAM_ROOTS = 32
+"""Roots of the greedy homology basis (:func:`pcgeom.maps.seams.cut_graph`; 1: the one-root
+tree-cotree cut alone). Measured (cut graph over sqrt(area), the same local meshes; 1 / 4 /
+16 / 32 / 64 roots): genus-2 pretzel 5k 3.39 / 2.86 / 2.52 / 2.52 / 2.52, genus-4 5k 6.00 /
+4.73 / 4.63 / 4.52 / 4.51, torus 5k 1.66 / 1.66 / 1.65 / 1.65 / 1.65; 32 roots take 0.4 s at
+5k."""
 
 GAP = 5
 """Boundary loops of at most this many points are gaps, always filled: a hole about one
@@ -274,7 +277,7 @@ def atlas_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: b
     topo = mesh_topology(F)
     seams = {"genus": int(topo["genus"]), "loops": tally["loops"], "length": seam,
              "boundary_loops": int(topo["boundary_loops"]), "slits": tally["slits"],
-             "splits": tally["splits"], "tutte": tally["tutte"]}
+             "splits": tally["splits"], "tutte": tally["tutte"], "cut": tally["cut"]}
     log(f"atlas: {len(charts)} chart(s), seams of length {seam:.3g}, packed by {packer}",
         enabled=progress)
     a3 = 0.5 * np.linalg.norm(np.cross(Vc[Fc[:, 1]] - Vc[Fc[:, 0]],

@@ -141,6 +141,7 @@ def _disk(V: np.ndarray, piece: Piece, roots: int, tally: dict) -> Piece:
         return piece
     E, cut, info = cut_graph(V[piece.origin], piece.F, roots=roots)
     tally["loops"] += int(info["loops"])
+    tally["short"] = tally.get("short", 0) + (info.get("method") == "homology basis")
     parts = _parts(piece, cut, E)
     if len(parts) != 1 or not _is_disk(parts[0].F):
         raise InputError("--cut auto: the seams do not open this cloud's local mesh into "
@@ -190,6 +191,53 @@ def _slit(V: np.ndarray, chart: Chart) -> Piece | None:
         v = int(pred[v])
     parts = _parts(chart, cut, E)
     return parts[0] if len(parts) == 1 and _is_disk(parts[0].F) else None
+
+
+def _glue(V: np.ndarray, piece: Piece) -> Piece:
+    """``piece`` with the seams inside it glued back where it stays a disk without them: a
+    split leaves in each part seams that both of their sides now lie in, some of which the
+    part no longer needs (a path that joined the cut graph to a handle the split has cut);
+    each glued seam is shorter seams and one crack fewer for the map to open. Chains of seam
+    (between vertices where three or more seam edges meet, or one) are tried longest first,
+    each kept glued when the part stays one disk."""
+    from ..mesh import half_edges
+    from .seams import _chains
+
+    n, m = len(V), len(piece.F)
+    G = piece.origin[piece.F]  # the part's triangles in the mesh's vertices
+    E = unique_edges(G)
+    he_mesh, he_own = half_edges(G), half_edges(piece.F)
+    keys = np.minimum(he_mesh[:, 0], he_mesh[:, 1]) * n + np.maximum(he_mesh[:, 0],
+                                                                      he_mesh[:, 1])
+    eid = np.searchsorted(E[:, 0] * n + E[:, 1], keys)
+    order = np.argsort(eid, kind="stable")
+    se = eid[order]
+    twin = np.flatnonzero(se[1:] == se[:-1])
+    h1, h2 = order[twin], order[twin + 1]
+    # An edge inside the part is a seam when its two triangles do not share its ends there.
+    seam = np.zeros(len(E), dtype=bool)
+    seam[se[twin]] = (he_own[h1, 0] != he_own[h2, 1]) | (he_own[h1, 1] != he_own[h2, 0])
+    if not seam.any():
+        return piece
+    length = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
+    best = None
+    changed = True
+    while changed and seam.any():
+        changed = False
+        chain, count = _chains(E, seam, n)
+        rows = np.flatnonzero(seam)
+        for c in np.argsort(-np.bincount(chain, length[rows], minlength=count), kind="stable"):
+            trial = seam.copy()
+            trial[rows[chain == c]] = False
+            Fc, o = cut_open(G, E, trial, n)
+            if _is_disk(Fc) and connected_components(sp.coo_matrix(
+                    (np.ones(2 * m), (np.r_[Fc[:, 0], Fc[:, 1]], np.r_[Fc[:, 1], Fc[:, 2]])),
+                    shape=(len(o), len(o))), directed=False)[0] == 1:
+                seam, best, changed = trial, (Fc, o), True
+                break
+    if best is None:
+        return piece
+    return Piece(piece.faces, best[0], best[1])
 
 
 def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
@@ -274,17 +322,49 @@ def fit_charts(V: np.ndarray, F: np.ndarray, max_stretch: float, *, roots: int =
                slits: int = SLITS, depth: int = DEPTH) -> tuple[list[Chart], dict]:
     """The charts of the mesh ``(V, F)`` (steps 1-3 of the module), and a tally: ``loops``
     (the tree-cotree loops or paths that opened pieces into disks), ``slits``, ``splits``,
-    ``tutte`` (charts mapped by :func:`_tutte`).
+    ``tutte`` (charts mapped by :func:`_tutte`), ``short`` (pieces opened by the short
+    cut graph), ``seam_length`` (the seams' length, in the
+    units of ``V``), ``cut`` (the cut graph that gave them: ``"short"`` or
+    ``"tree-cotree"``).
+
+    The pieces are opened by the shortest cut graph :func:`pcgeom.maps.seams.cut_graph`
+    finds from ``roots`` roots; when its charts need slits or splits (a short cut leaves more
+    area distortion), the charts from the one-root tree-cotree cut are made too and the
+    atlas with the shorter seams (slits and splits counted) is kept.
 
     Each chart's ``info["ok"]`` says it has no flip and a simple boundary; its spread may stay
     over ``max_stretch`` when its slits and splits are spent (``info["spread"]``).
     """
-    tally = {"loops": 0, "slits": 0, "splits": 0, "tutte": 0}
     whole = Piece(np.arange(len(F)), np.asarray(F, dtype=np.int64),
                   np.arange(len(V), dtype=np.int64))
+    pieces = _parts(whole)
+    own = _rim_length(V, whole)
+    best = None
+    for r in dict.fromkeys([max(int(roots), 1), 1]):
+        out, tally = _fit(V, pieces, max_stretch, roots=r, slits=slits, depth=depth)
+        tally["seam_length"] = sum(_rim_length(V, c) for c in out) / 2 - own / 2
+        tally["cut"] = "short" if tally["short"] else "tree-cotree"
+        if best is None or tally["seam_length"] < best[1]["seam_length"]:
+            best = (out, tally)
+        if not tally["short"] or not (tally["slits"] or tally["splits"] or tally["tutte"]):
+            break
+    return best
+
+
+def _rim_length(V: np.ndarray, piece: Piece) -> float:
+    """The length of the boundary loops of ``piece``."""
+    P = V[piece.origin]
+    return sum(float(np.linalg.norm(P[np.asarray(lp)] - P[np.roll(np.asarray(lp), -1)],
+                                    axis=1).sum()) for lp in boundary_loops(piece.F))
+
+
+def _fit(V: np.ndarray, pieces: list[Piece], max_stretch: float, *, roots: int, slits: int,
+         depth: int) -> tuple[list[Chart], dict]:
+    """:func:`fit_charts` with the pieces opened by the cut graph from ``roots`` roots."""
+    tally = {"loops": 0, "slits": 0, "splits": 0, "tutte": 0, "short": 0}
     out: list[Chart] = []
     # (piece, splits above it, slits in it, the chart before its last slit)
-    work = [(p, 0, 0, None) for p in _parts(whole)]
+    work = [(p, 0, 0, None) for p in pieces]
     while work:
         piece, level, cuts, before = work.pop()
         chart = _map(V, _disk(V, piece, roots, tally), cuts)
@@ -304,7 +384,7 @@ def fit_charts(V: np.ndarray, F: np.ndarray, max_stretch: float, *, roots: int =
                 tally["slits"] += 1
                 continue
         if level < depth and len(chart.F) > 1:
-            work.extend((p, level + 1, 0, None) for p in _split(V, chart))
+            work.extend((_glue(V, p), level + 1, 0, None) for p in _split(V, chart))
             tally["splits"] += 1
             continue
         if not ok:
