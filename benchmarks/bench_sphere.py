@@ -84,7 +84,7 @@ def method_rows(case: str, V, F, clean) -> list[dict]:
                 lambda: SM.best_sphere_map(V, F)[0]),
                ("linear: cotangent weights clamped positive only where they turn a triangle "
                 "over, the correction from both poles", lambda: SM.spherical_conformal(V, F)),
-               ("conformalized mean curvature flow, 20 steps", lambda: SM.cmcf(V, F)),
+               ("conformalized mean curvature flow, 40 steps", lambda: SM.cmcf(V, F)),
                ("Choi et al. as published (cotangent weights as they are, one correction)",
                 lambda: SM.spherical_conformal(V, F, clamp="never", poles=1)),
                ("linear, weights always clamped positive",
@@ -249,7 +249,7 @@ def render(rows, methods, argv) -> str:
         "triangles (the true triangles with the mapped unit vectors as corners) against the "
         "clean true surface; flipped: turned against the centre. The anchor (issue 37 item 3) "
         "is the better of the stereographic method as Choi et al. publish it and "
-        "conformalized mean curvature flow (20 steps), each on the true triangulation of the "
+        "conformalized mean curvature flow (40 steps), each on the true triangulation of the "
         "same points (with their noise), judged the same way, as the planar noise rows judge "
         "LSCM on the noisy mesh; the clean anchor, the same on the clean true mesh, is the "
         "ideal a noisy cloud cannot quite reach. pcgeom's method: the column says which of "
