@@ -342,13 +342,42 @@ def test_atlas_figure_parts(torus_map):
     assert (counts == 2).all()  # each seam edge of the surface: once per side
 
 
-@pytest.mark.parametrize("command", ["reconstruct", "boundary"])
-def test_cut_map_refused_by_reconstruct_and_boundary(tmp_path, capsys, torus_file, torus_map,
-                                                     command):
-    """A cut map's point uv jump across seams: reconstruct and boundary refuse it in one line
-    (before any output) and name what writes its mesh with the atlas."""
+def test_cut_map_refused_by_boundary(tmp_path, capsys, torus_file, torus_map):
+    """A cut map's point uv jump across seams: boundary refuses it in one line (before any
+    output) and names what writes its mesh with the atlas."""
     path = torus_map.save(tmp_path / "t.npz")
-    out = tmp_path / ("m.ply" if command == "reconstruct" else "b.json")
-    assert_cli_fails(capsys, [command, str(torus_file), "--map", str(path), "--out", str(out)],
-                     "is a cut map (--cut auto); ")
+    out = tmp_path / "b.json"
+    assert_cli_fails(capsys, ["boundary", str(torus_file), "--map", str(path), "--out",
+                              str(out)], "is a cut map (--cut auto); ")
     assert not out.exists()
+
+
+def test_reconstruct_cut_map(tmp_path, capsys, torus_file, torus_map):
+    """reconstruct on a cut map writes its own mesh with the atlas per corner (one vertex per
+    meshed point, more uv than vertices, every uv in [0, 1], the checkerboard beside it); a
+    PLY path or remeshing options are refused in one line, nothing written."""
+    import json
+
+    import trimesh
+
+    from pcgeom import cli
+
+    path = torus_map.save(tmp_path / "t.npz")
+    for extra, message in [(["--out", str(tmp_path / "m.ply")], "give an .obj path to --out"),
+                           (["--out", str(tmp_path / "m.obj"), "--target-vertices", "900"],
+                            "not remeshed; drop --target-vertices and --size")]:
+        assert_cli_fails(capsys, ["reconstruct", str(torus_file), "--map", str(path), *extra],
+                         message)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.npz"]
+    obj = tmp_path / "m.obj"
+    assert cli.main(["reconstruct", str(torus_file), "--map", str(path), "--out", str(obj),
+                     "--texture", "checker:8", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    n_faces = len(torus_map.mesh_faces)
+    assert summary["n_faces"] == n_faces and summary["charts"] == 1 and summary["uv_inside"]
+    assert summary["n_vertices"] == len(np.unique(torus_map.mesh_faces))
+    assert summary["n_uv"] > summary["n_vertices"]  # seams split in uv, not in 3D
+    m = trimesh.load(obj, process=False)
+    assert len(m.faces) == n_faces and len(m.vertices) == summary["n_uv"]
+    assert (m.visual.uv >= 0).all() and (m.visual.uv <= 1).all()
+    assert (tmp_path / "m.mtl").exists() and (tmp_path / "m_checker.png").exists()

@@ -144,10 +144,11 @@ def add_cloud_and_map(p: argparse.ArgumentParser) -> None:
 
 
 def load_free_map(args, points, purpose: str, domain=None, hint: str = "",
-                  closed_ok: bool = False):
+                  closed_ok: bool = False, *, cut_ok: bool = False):
     """The ``ParamResult`` of ``args.map``, checked to be a free-boundary map of ``points``,
     or, with a bounded ``domain``, a map of ``points`` onto that very domain; with
-    ``closed_ok`` and no ``domain``, a map onto a closed domain (the sphere) too.
+    ``closed_ok`` and no ``domain``, a map onto a closed domain (the sphere) too; with
+    ``cut_ok``, a cut map (``--cut auto``: an atlas) too.
 
     Raises
     ------
@@ -165,7 +166,7 @@ def load_free_map(args, points, purpose: str, domain=None, hint: str = "",
     if result.fingerprint is not None and result.fingerprint != fingerprint(points):
         raise InputError(f"{args.map}: was made from another cloud than {args.input} "
                          "(same number of points, different coordinates)")
-    if result.corner_uv is not None:  # an atlas: its points' uv jump across the seams
+    if result.corner_uv is not None and not cut_ok:  # an atlas: uv jump across the seams
         raise InputError(f"{args.map}: is a cut map (--cut auto); {purpose} needs one chart "
                          "without seams (pcgeom param without --cut); the cut map's own mesh "
                          "with its atlas: pcgeom param --cut auto --out-mesh MESH.obj")

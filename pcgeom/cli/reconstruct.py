@@ -51,6 +51,9 @@ examples:
   pcgeom reconstruct statue.ply --map statue_uv.npz --size adaptive --out statue_mesh.ply
       reuses a map that 'pcgeom param statue.ply --domain sphere' wrote (the file says it is
       onto the sphere; --domain sphere may be given too)
+  pcgeom reconstruct mug.ply --map mug_uv.npz --texture checker:12 --out mug.obj
+      a cut map ('pcgeom param mug.ply --cut auto'): its own mesh with the atlas per corner
+      (seam vertices split in uv, not in 3D), not remeshed; .obj only
   pcgeom reconstruct noisy_scan.ply --denoise auto --out mesh.ply
       fits the surface first when the scan is noisy (as by default): the mesh is lifted over
       the fitted points, not the noisy ones
@@ -128,7 +131,10 @@ def run(args) -> int:
     require_gmsh()  # a missing gmsh fails here, before any training
     if args.map is not None:
         result = load_free_map(args, points, "surface reconstruction", domain=domain,
-                               hint=" or --domain with the map's domain", closed_ok=True)
+                               hint=" or --domain with the map's domain", closed_ok=True,
+                               cut_ok=True)
+        if result.corner_uv is not None:
+            return _on_atlas(args, points, result, out)
         if result.domain is not None and result.domain.closed:
             domain = result.domain  # a map onto the sphere says so itself
             if args.texture is not None:
@@ -231,6 +237,36 @@ def _on_sphere(args, points, result, out) -> int:
              f"{report['euler_characteristic']} (genus {report['genus']:g}); lifted over the "
              f"{report['triangulation']} of the sphere map, {report['interpolation']}")
     return _print(args, points, report, summary, shape, texture=False)
+
+
+def _on_atlas(args, points, result, out) -> int:
+    """A cut map (``--cut auto``): its own mesh, cut along the seams in uv only, with the
+    atlas per corner (:func:`pcgeom.apps.reconstruct.atlas_mesh`); ``.obj`` only, not
+    remeshed (no ``--target-vertices``, ``--size adaptive``)."""
+    from ..apps.reconstruct import atlas_mesh
+
+    if not str(out).lower().endswith(".obj"):
+        raise InputError(f"{args.map}: is a cut map (--cut auto): its mesh carries the atlas "
+                         "per corner; give an .obj path to --out")
+    if args.target_vertices is not None or args.size != "uniform":
+        raise InputError(f"{args.map}: is a cut map (--cut auto): its mesh is the map's own, "
+                         "cut along the seams, not remeshed; drop --target-vertices and --size")
+    V, F, report = atlas_mesh(result, points, out, texture=args.texture)
+    files = None
+    if args.texture is not None:
+        files = {k: os.fspath(v) for k, v in texture_paths(out, args.texture).items()}
+    report.update(texture=args.texture.spec if args.texture is not None else None,
+                  texture_files=files)
+    summary = _summary(args, points, result, out, report)
+    if args.json:
+        print(json.dumps(summary))
+        return EXIT_OK
+    print(f"{args.input}: {len(points)} points -> {report['n_vertices']} vertices, "
+          f"{report['n_faces']} triangles -> {summary['out']}")
+    print(f"  atlas: {report['charts']} chart(s), {report['n_uv']} texture coordinates "
+          f"(seam vertices split in uv), every uv in [0, 1]: {report['uv_inside']}")
+    print_noise(summary["denoise"])
+    return EXIT_OK
 
 
 def _loops_line(report: dict, loops: str) -> str:

@@ -14,6 +14,9 @@ the sphere meshed and lifted into a closed genus-0 mesh (:func:`reconstruct_on_s
 4. Measure the mesh (:mod:`.report`) and write it as PLY or OBJ (:mod:`.export`);
    :mod:`.surface` chains the steps.
 
+A cut map (``--cut auto``) is not remeshed: its own mesh is written with the atlas per corner
+(:func:`atlas_mesh`).
+
 Measured on face_3holes_small_choi (5053 points), its ``fast`` map, 5000 target vertices:
 5060 vertices (uniform; 5128 adaptive), 4 boundary loops, edge-manifold, oriented; distance
 of the vertices to the true mesh at most 0.46% of the bounding-box diagonal; minimum angle
@@ -25,6 +28,7 @@ oriented wherever the map is one-to-one (its normal is the one the map's orienta
 
 from __future__ import annotations
 
+from .atlas import atlas_mesh
 from .export import MESH_FORMATS, check_mesh_path, texture_paths, write_mesh
 from .gmsh_mesh import mesh_domain, mesh_region, require_gmsh
 from .lifting import inlier_rows, lift, map_delaunay
@@ -33,7 +37,8 @@ from .sphere import (INTERPOLATIONS, closed_checks, lift_sphere, mesh_sphere,
                      reconstruct_on_sphere, sphere_compression, sphere_triangulation)
 from .surface import SIZES, reconstruct_on_domain, reconstruct_surface
 
-__all__ = ["reconstruct_surface", "reconstruct_on_domain", "reconstruct_on_sphere", "lift",
+__all__ = ["atlas_mesh", "reconstruct_surface", "reconstruct_on_domain", "reconstruct_on_sphere",
+           "lift",
            "inlier_rows",
            "lift_sphere", "mesh_region", "mesh_domain", "mesh_sphere", "map_delaunay",
            "sphere_triangulation", "sphere_compression", "closed_checks", "mesh_report", "SIZES",
