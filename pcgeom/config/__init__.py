@@ -296,6 +296,25 @@ class LocalMeshConfig:
     """The share of its own triangles (:func:`pcgeom.maps.localmesh.mesh_flips`) the free map
     may turn over before :attr:`normal_rounds` start, and at which they stop: 0.1%, the share
     the benchmarks hold a map that does not fold to (peaks_three_cgal's 3 of 3668 run none)."""
+    facing: float = 0.2
+    """The free map's local mesh keeps no triangle that stands across its corners' normals:
+    none whose normal has ``|cos| <= facing`` with a corner's normal line (about 78 degrees
+    apart; :func:`pcgeom.maps.localmesh.standing`). Such triangles cut the corner of a sharp
+    lip or bridge a narrow groove's walls, and make handles no flat map can hold. A cloud with
+    normals: its mesh is built so; without: the mesh of the normals the
+    :attr:`normal_rounds` kept is built again so (the rounds read the flips of the whole
+    mesh). 0: off. Measured (bare, ``fast``, seed 0, on the true triangles, 0 -> 0.2):
+    :func:`pcgeom.synthetic_folds.deep_folds` (6000 points) with walls 1.5 / 2 / 3 spacings
+    apart 0.0217 / 0.0113 / 0.0134 -> 0.0178 / 0.0029 / 0.0022 rad (its exact map 0.0061 /
+    0.0054 / 0.0045; local-mesh genus 1 / 7 / 3 -> 1 / 0 / 0), uniformly sampled 0.0937 /
+    0.0342 / 0.0117 rad, 1.39 / 0.68 / 0.22% flipped -> 0.0876 / 0.0217 / 0.0086, 1.37 / 0.48
+    / 0.06%; the pleats 1.5 / 2 / 2.5 spacings apart 0.0261 / 0.0100 / 0.0102 -> 0.0251 /
+    0.0055 / 0.0036; face_human_choi 0.0333 rad, 2.49% -> 0.0324, 2.47%; peaks_three_cgal
+    0.0413, 0.22% -> 0.0406, 0.00%; face_3holes_small_choi 0.0103 -> 0.0100,
+    peaks_7holes_choi 0.0296 -> 0.0295 (no flip either way). 0.3 maps the uniform grooves 2
+    spacings apart better (0.0123 rad, 0.23%) but a noisy range scan of a head
+    (tests/test_scans.py) at 0.0821 rad, 40 flipped, against 0.0713 and 3 (0.2: 0.0708, 3).
+    It costs one more mesh and solve (face_human_choi's free map 1.2-1.4x the time)."""
     refine_steps: int = 0
     """Steps of the LEG refinement (:class:`RefineConfig`, same-sheet pairs) after LSCM.
     0: none. Measured on face_human_choi from a 0.040 rad local-mesh map: 300 steps raise it to
@@ -366,6 +385,10 @@ class LocalMeshConfig:
         _count("LocalMeshConfig", "refine_steps", self.refine_steps, allow_zero=True)
         _count("LocalMeshConfig", "robust_rounds", self.robust_rounds, allow_zero=True)
         _count("LocalMeshConfig", "normal_rounds", self.normal_rounds, allow_zero=True)
+        if (isinstance(self.facing, bool) or not isinstance(self.facing, (int, float))
+                or not 0 <= self.facing < 1):
+            raise InputError(f"LocalMeshConfig.facing: expected a number in [0, 1), "
+                             f"got {self.facing!r}")
         if (isinstance(self.normal_round_flips, bool)
                 or not isinstance(self.normal_round_flips, (int, float))
                 or not 0 <= self.normal_round_flips < 1):

@@ -17,7 +17,12 @@
    turns some of the mesh's own triangles over. While it turns over more than
    ``normal_round_flips`` of them, the mesh's own vertex normals (an angle-weighted average
    of its triangles, :func:`pcgeom.maps.localmesh.mesh_normals`) replace the normals, and
-   the mesh is built and mapped again; the map that turns over fewest is kept.
+   the mesh is built and mapped again; the map that turns over fewest is kept. **Upright
+   mesh** (``LocalMeshConfig.facing``): the triangles that stand across their corners'
+   normals (:func:`pcgeom.maps.localmesh.standing`: a sharp lip's corner cut, a bridge
+   between a groove's walls) make handles no flat map holds; a cloud with normals has its
+   mesh built without them, a bare one has the mesh of the normals the rounds kept built
+   again without them, and mapped again (:func:`_upright`).
 5. **Conformal factor.** ``l_i``, the inverse-lambda of LEG, is set so that LEG's
    ``(l_i + l_j) |u_i - u_j|`` matches ``|x_i - x_j|`` at the point's nearest neighbours.
 
@@ -306,8 +311,9 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     t0 = time.perf_counter()
     settings = config.local_mesh
     outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, dtype=bool)
+    facing = settings.facing or None
     mesh, normals, record = mesh_for(Xn, normals, config, progress=progress, outlier=outlier,
-                                     onto=onto)
+                                     onto=onto, facing=None if normals is None else facing)
 
     def solve(mesh: LocalMesh) -> tuple[np.ndarray, dict]:
         stats: dict = {}
@@ -321,6 +327,9 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
         uv, mesh, normals, robust = _normal_rounds(Xn, (uv, mesh, normals, robust), solve,
                                                    settings, outlier=outlier, record=record,
                                                    progress=progress)
+    if record["normals"] == "estimated" and facing is not None:
+        uv, mesh, robust = _upright(Xn, (uv, mesh, normals, robust), solve, settings,
+                                    outlier=outlier, record=record)
     record["robust_rounds"] = settings.robust_rounds
     # Triangles the robust round weighted below 1/2 (None without a round).
     record["robust_downweighted"] = robust.get("downweighted")
@@ -328,6 +337,25 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     record["ordering"] = ordering_name()
     record["seconds"] = time.perf_counter() - t0
     return uv, mesh, normals, record
+
+
+def _upright(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.ndarray,
+             record: dict) -> tuple:
+    """The local mesh of the kept normals built again without the triangles that stand
+    across their corners' normals (``settings.facing``, :func:`pcgeom.maps.localmesh.standing`)
+    and mapped: ``(uv, mesh, stats)``; ``kept``'s (``(uv, mesh, normals, stats)``) when that
+    mesh is no open surface. ``record`` receives ``standing_cut`` (triangles the mesh lost)
+    and the new mesh's ``faces``, ``boundary_edges``, ``unmeshed`` and topology."""
+    uv, mesh, normals, stats = kept
+    upright = local_mesh(Xn, normals, settings.neighbours, exclude=outlier,
+                         facing=settings.facing)
+    if upright.main.mean() < MIN_MESHED or upright.looks_closed:
+        return uv, mesh, stats
+    uv, stats = solve(upright)
+    record.update(standing_cut=mesh.n_faces - upright.n_faces, faces=upright.n_faces,
+                  boundary_edges=upright.boundary_edges, unmeshed=int((~upright.main).sum()),
+                  **topology_record(upright.topology))
+    return uv, upright, stats
 
 
 NORMAL_ROUND_PATIENCE = 1

@@ -41,7 +41,7 @@ from .bridges import cut_bridges
 from .normals import orient_normals
 from .topology import PLANAR_CLOSED, SPACING_NEIGHBOURS, Topology, repair, require_open
 
-__all__ = ["LocalMesh", "local_mesh", "mesh_cloud", "mesh_flips", "mesh_normals",
+__all__ = ["LocalMesh", "local_mesh", "mesh_cloud", "mesh_flips", "mesh_normals", "standing",
            "topology_record", "BRIDGES_WITH_INPUT_NORMALS", "CLOSED_SURFACE", "MIN_MESHED",
            "NOT_A_SURFACE"]
 
@@ -109,6 +109,12 @@ class LocalMesh:
             return self.topology.closed
         return self.boundary_edges == 0
 
+
+STANDING_QUALITY = 0.05
+"""Triangles of worse shape quality than this are not tested for standing (:func:`standing`):
+a sliver's plane says nothing of the surface (collinear rim points of a grid: the
+three peaks' 30 x 30 grid lost 17 rim slivers of quality 0.0004-0.005 at ``facing`` 0.2, and
+its disk map turned 3 true triangles over on the rim)."""
 
 _MIN_QUALITY = 1e-4
 """Triangles of worse shape quality (1: equilateral, 0: degenerate) are never kept."""
@@ -247,14 +253,16 @@ def _greedy_claims(edges: np.ndarray) -> np.ndarray:
     return kept
 
 
-def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray
-           ) -> tuple[np.ndarray, int]:
+def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray,
+           facing: float | None = None) -> tuple[np.ndarray, int]:
     """Greedy edge-manifold, consistently oriented union of the fans' triangles, and the
     number of distinct candidates.
 
     The candidates, oriented by their corners' normals, are taken by votes (how many fans
     made them), then shape quality; one is kept when none of its directed edges is taken
     (each edge then has at most two triangles, on opposite sides: manifold and oriented).
+    ``facing``: a candidate whose unit normal ``m`` has ``|m . n_i| <= facing`` at a corner
+    ``i`` is no candidate (:func:`standing`).
     """
     tris, votes = _unique_rows(np.sort(candidates, axis=1))
     if len(tris) == 0:
@@ -268,11 +276,32 @@ def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray
     # Slivers (collinear points, as on a regular grid) make the cotangent weights blow up.
     order = np.lexsort((-quality, -votes))
     order = order[quality[order] > _MIN_QUALITY]
+    if facing is not None:  # slivers' planes are their points' rounding: no test
+        order = order[~(standing(cross[order], normals[tris[order]], facing)
+                        & (quality[order] > STANDING_QUALITY))]
     n = int(tris.max()) + 1
     ranked = tris[order]
     edges = ranked * n + np.roll(ranked, -1, axis=1)  # a -> b, b -> c, c -> a as a * n + b
     keep = order[_greedy_claims(edges)]
     return tris[np.sort(keep)], len(tris)
+
+
+def standing(cross: np.ndarray, corner_normals: np.ndarray, facing: float) -> np.ndarray:
+    """(M,) bool: triangles that stand across the surface: at one corner or more, the
+    triangle's normal (``cross``, (M, 3), any length and side) and the corner's normal line
+    (``corner_normals``, (M, 3, 3) unit) are further apart than ``arccos(facing)``.
+
+    A triangle of a sampled surface lies close to the tangent planes at its corners (its
+    normal within about its edge length times the curvature of theirs); one that stands
+    across them joins points the surface does not join directly: the flat beside a groove to
+    the groove's wall under its lip (a corner cut), or one wall of a narrow groove to the
+    other (a bridge). The sign of the normals plays no part, so a corner whose estimated normal
+    is turned the wrong way keeps its triangles (the normal rounds need them to mend it).
+    Cutting them opens the handles such triangles make (``pcgeom.synthetic_folds.deep_folds``,
+    walls 2-3 spacings apart: local-mesh genus 1-7 -> 0); see
+    :attr:`pcgeom.config.LocalMeshConfig.facing` for the measured maps."""
+    unit = cross / np.maximum(np.linalg.norm(cross, axis=1, keepdims=True), 1e-300)
+    return (np.abs(np.einsum("md,mkd->mk", unit, corner_normals)) <= facing).any(axis=1)
 
 
 def _submesh(X: np.ndarray, faces: np.ndarray, keep: np.ndarray
@@ -288,7 +317,8 @@ def _submesh(X: np.ndarray, faces: np.ndarray, keep: np.ndarray
 
 def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
                exclude: np.ndarray | None = None, progress: bool = False,
-               knn: Neighbours | None = None, bridges: bool = False) -> LocalMesh:
+               knn: Neighbours | None = None, bridges: bool = False,
+               facing: float | None = None) -> LocalMesh:
     """Build the manifold mesh of same-sheet tangent fans (steps 1-4 of the module).
 
     Parameters
@@ -310,6 +340,9 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
         Cut the bridges between sheets where that lowers the repaired mesh's genus
         (:func:`pcgeom.maps.bridges.cut_bridges`). Runs ask for it when the cloud came with
         its normals (:func:`mesh_cloud`, :data:`BRIDGES_WITH_INPUT_NORMALS`).
+    facing : float, optional
+        Triangles standing across their corners' normals (:func:`standing`) are no
+        candidates (:attr:`pcgeom.config.LocalMeshConfig.facing`). None: all are.
 
     Returns
     -------
@@ -319,7 +352,7 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     n = len(X)
     kept = np.arange(n) if exclude is None else np.flatnonzero(~np.asarray(exclude, bool))
     candidates = kept[_fans(X[kept], normals[kept], neighbours, progress, knn=knn)]
-    faces, n_candidates = _merge(X, normals, candidates)
+    faces, n_candidates = _merge(X, normals, candidates, facing)
     del candidates
     spacing = None
     if knn is not None and knn.k >= SPACING_NEIGHBOURS:
@@ -390,8 +423,8 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
                normal_neighbours: int, *, progress: bool,
                normal_scales: tuple[int, ...] = (6, 8, 12, 16, 24),
                normal_tolerance: float = 0.03, outlier: np.ndarray | None = None,
-               closed: bool = False, onto: str | None = "free", bridges: bool | None = None
-               ) -> tuple[LocalMesh, np.ndarray, dict]:
+               closed: bool = False, onto: str | None = "free", bridges: bool | None = None,
+               facing: float | None = None) -> tuple[LocalMesh, np.ndarray, dict]:
     """Outliers, the surface test, normals and the local mesh of a normalized cloud.
 
     Parameters
@@ -416,6 +449,8 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     bridges : bool or None
         Cut the bridges between sheets (:func:`local_mesh`); None: when ``normals`` are
         given (:data:`BRIDGES_WITH_INPUT_NORMALS`).
+    facing : float, optional
+        Drop the triangles that stand across their corners' normals (:func:`local_mesh`).
 
     Returns
     -------
@@ -464,7 +499,7 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
     if bridges is None:
         bridges = BRIDGES_WITH_INPUT_NORMALS and source == "input"
     mesh = local_mesh(Xn, normals, neighbours, exclude=outlier, progress=progress, knn=knn,
-                      bridges=bridges)
+                      bridges=bridges, facing=facing)
     del knn
     meshed = float(mesh.main.mean())
     if meshed < MIN_MESHED:
