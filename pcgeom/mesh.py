@@ -54,6 +54,15 @@ def signed_areas(U, F) -> np.ndarray:
     return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
 
 
+def cross3(a, b) -> np.ndarray:
+    """``np.cross(a, b)`` of 3-vectors along the last axis (broadcast), the same products in
+    the same order, without its axis bookkeeping (several times faster on small arrays)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def shoelace(P: np.ndarray) -> float:
     """Shoelace area of the closed polygon ``P`` (k, 2) (last vertex joined to the first):
     positive when counter-clockwise, ``A = sum_i (x_i y_{i+1} - x_{i+1} y_i) / 2``."""

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh import half_edges as _directed, successor_walks
+from ..mesh import cross3, half_edges as _directed, successor_walks
 
 __all__ = ["refill_small_loops"]
 
@@ -124,15 +124,15 @@ def _empty_radius(X: np.ndarray, F: np.ndarray, cloud) -> np.ndarray:
     fill, whose circumcentre lies out over the mesh, it is small."""
     A, B, C = X[F[:, 0]], X[F[:, 1]], X[F[:, 2]]
     a, b = A - C, B - C
-    axb = np.cross(a, b)
-    num = np.cross((a * a).sum(1)[:, None] * b - (b * b).sum(1)[:, None] * a, axb)
+    axb = cross3(a, b)
+    num = cross3((a * a).sum(1)[:, None] * b - (b * b).sum(1)[:, None] * a, axb)
     centre = C + num / np.maximum(2.0 * (axb * axb).sum(1), 1e-300)[:, None]
     return cloud.query(centre)[0]
 
 
 def _faces_normals(X: np.ndarray, normals: np.ndarray, F: np.ndarray) -> bool:
     """Whether each triangle of ``F`` is within :data:`REFILL_TURN` of each corner's normal."""
-    face = np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
+    face = cross3(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
     face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
     turn = np.einsum("md,mcd->mc", face, normals[F])  # (M, 3) cosines
     return bool((turn > np.cos(np.radians(REFILL_TURN))).all())

@@ -54,7 +54,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..mesh import half_edges as _directed
+from ..mesh import cross3, half_edges as _directed
 from .fills import refill_small_loops
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
@@ -311,7 +311,7 @@ def enclosing_radius(X: np.ndarray, F: np.ndarray) -> np.ndarray:
     e = np.stack([((X[F[:, (q + 1) % 3]] - X[F[:, (q + 2) % 3]]) ** 2).sum(axis=1)
                   for q in range(3)], axis=1)
     longest = e.max(axis=1)
-    area2 = np.linalg.norm(np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]), axis=1)
+    area2 = np.linalg.norm(cross3(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]), axis=1)
     circum = np.sqrt(e.prod(axis=1)) / np.maximum(2.0 * area2, 1e-300)
     obtuse = 2.0 * longest >= e.sum(axis=1)
     return np.where(obtuse, 0.5 * np.sqrt(longest), circum)
@@ -339,9 +339,9 @@ def _plane(X: np.ndarray, normals: np.ndarray, loop: np.ndarray) -> np.ndarray:
         if n @ normals[loop].sum(axis=0) < 0:
             n = -n
     n = n / np.linalg.norm(n)
-    a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a = cross3(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
     a /= np.linalg.norm(a)
-    return np.stack([a, np.cross(n, a), n])
+    return np.stack([a, cross3(n, a), n])
 
 
 def fill_loop(X: np.ndarray, normals: np.ndarray, loop: np.ndarray, inner: np.ndarray,
@@ -361,7 +361,7 @@ def fill_loop(X: np.ndarray, normals: np.ndarray, loop: np.ndarray, inner: np.nd
 
     if len(loop) == 3 and not len(inner):  # one triangle, each loop edge the other way
         F = loop[None, [0, 2, 1]]
-        face = np.cross(X[F[0, 1]] - X[F[0, 0]], X[F[0, 2]] - X[F[0, 0]])
+        face = cross3(X[F[0, 1]] - X[F[0, 0]], X[F[0, 2]] - X[F[0, 0]])
         return F if folds or face @ normals[loop].sum(axis=0) > 0 else None
     frame = _plane(X, normals, loop)
     centre = X[loop].mean(axis=0)
@@ -415,7 +415,7 @@ def fill_loop(X: np.ndarray, normals: np.ndarray, loop: np.ndarray, inner: np.nd
     if _has_directed(F, int(loop[0]), int(loop[1])):
         F = F[:, [0, 2, 1]]
     # Each triangle faces the side of its corners' normals.
-    face = np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
+    face = cross3(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
     if (np.einsum("md,md->m", face, normals[F].sum(axis=1)) <= 0).any() or (
             edges is not None and _holds(F, edges, len(X))):
         return _least_area_fill(X, normals, loop, edges, folds)
@@ -455,7 +455,7 @@ def _least_area_fill(X: np.ndarray, normals: np.ndarray, loop: np.ndarray,
         return None
     P, Nv = X[loop], normals[loop]
     i, m, j = np.meshgrid(np.arange(k), np.arange(k), np.arange(k), indexing="ij")
-    face = np.cross(P[j] - P[i], P[m] - P[i])  # (i, j, m): each loop edge reversed
+    face = cross3(P[j] - P[i], P[m] - P[i])  # (i, j, m): each loop edge reversed
     area = 0.5 * np.linalg.norm(face, axis=-1)
     away = np.einsum("ijmd,ijmd->ijm", face, Nv[i] + Nv[j] + Nv[m]) <= 0
     far = 10.0 * (area.sum() / max(k, 1) ** 2 + 1e-300) * k
@@ -470,13 +470,15 @@ def _least_area_fill(X: np.ndarray, normals: np.ndarray, loop: np.ndarray,
         cost = np.where(blocked[i, j] | blocked[j, m] | blocked[m, i], np.inf, cost)
     best = np.zeros((k, k))
     split = np.zeros((k, k), dtype=np.int64)
-    for gap in range(2, k):
-        for a in range(0, k - gap):
-            b = a + gap
-            mids = np.arange(a + 1, b)
-            total = best[a, mids] + best[mids, b] + cost[a, mids, b]
-            pick = int(np.argmin(total))
-            best[a, b], split[a, b] = total[pick], mids[pick]
+    for gap in range(2, k):  # every polygon a .. a + gap at once
+        a = np.arange(0, k - gap)[:, None]
+        b = a + gap
+        mids = a + np.arange(1, gap)[None, :]
+        total = best[a, mids] + best[mids, b] + cost[a, mids, b]
+        pick = np.argmin(total, axis=1)
+        rows = np.arange(len(a))
+        best[a[:, 0], b[:, 0]] = total[rows, pick]
+        split[a[:, 0], b[:, 0]] = mids[rows, pick]
     if not np.isfinite(best[0, k - 1]) or (best[0, k - 1] >= far and not folds):
         return None
     tris, stack = [], [(0, k - 1)]
@@ -575,15 +577,17 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
         h = knn_spacing(X) if spacing is None else np.asarray(spacing, dtype=np.float64)
         width = enclosing_radius(X, faces) / np.maximum(h[faces].mean(axis=1), 1e-300)
         bound = HOLE_MARGIN * widest_empty(width)
-        if _has_long_loop(X, faces, h, GROW_LOOP * bound):
+        loops = simple_loops(faces)
+        if _has_long_loop(X, loops, h, GROW_LOOP * bound):
             # A loop longer than any hole the sampling leaves: an open surface. The holes
             # the sampling leaves are filled where a flat fill closes them (a fold costs its
             # map).
-            faces, filled, _, _ = _fill_pass(X, normals, faces, h, bound, exclude)
+            faces, filled, _, _ = _fill_pass(X, normals, faces, h, bound, exclude, loops=loops)
             faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude)
             filled += refilled
             return faces, _topology(before, pinched_before, *_measure(faces), filled, 0)
-        faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude)
+        faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude,
+                                                loops=loops)
         if len(stuck) or long:
             # Loops left that no flat fill closes: the mesh overlaps itself there (noise,
             # uneven sampling), on what may be a closed surface. Their points' triangles go
@@ -621,10 +625,11 @@ def _topology(before: dict, pinched_before: np.ndarray, after: dict,
         boundary_loops_before=before["boundary_loops"], genus_before=before["genus"])
 
 
-def _has_long_loop(X: np.ndarray, faces: np.ndarray, h: np.ndarray, radius: float) -> bool:
-    """Whether a boundary loop of ``faces`` is longer than a circle of ``radius`` local
-    spacings (the median of its points')."""
-    for loop in simple_loops(faces):
+def _has_long_loop(X: np.ndarray, loops: list[np.ndarray], h: np.ndarray, radius: float
+                   ) -> bool:
+    """Whether a boundary loop of ``loops`` (:func:`simple_loops`) is longer than a circle of
+    ``radius`` local spacings (the median of its points')."""
+    for loop in loops:
         perimeter = np.linalg.norm(X[np.roll(loop, -1)] - X[loop], axis=1).sum()
         if perimeter > 2.0 * np.pi * radius * float(np.median(h[loop])):
             return True
@@ -633,11 +638,13 @@ def _has_long_loop(X: np.ndarray, faces: np.ndarray, h: np.ndarray, radius: floa
 
 def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
                bound: float, exclude: np.ndarray | None, *, folds: bool = False,
-               grow: float = 1.0) -> tuple[np.ndarray, int, np.ndarray, int]:
+               grow: float = 1.0, loops: list[np.ndarray] | None = None
+               ) -> tuple[np.ndarray, int, np.ndarray, int]:
     """One pass of step 1's fills over the loops of ``faces``: the faces with the fills, how
     many, and the points of the loops that the sampling can leave (no longer than a circle
     of radius ``grow * bound`` spacings) but that no fill closes (every fill folds, unless
-    ``folds``, or needs an edge the mesh has), and how many loops are left that are longer."""
+    ``folds``, or needs an edge the mesh has), and how many loops are left that are longer.
+    ``loops``: ``simple_loops(faces)``, when already found."""
     from scipy.spatial import cKDTree
 
     n = len(X)
@@ -666,7 +673,7 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
         return len(under) <= max(2, len(np.unique(F)) // 4)
 
     fills, stuck, long = [], [], 0
-    for loop in simple_loops(faces):
+    for loop in simple_loops(faces) if loops is None else loops:
         perimeter = np.linalg.norm(X[np.roll(loop, -1)] - X[loop], axis=1).sum()
         circle = 2.0 * np.pi * bound * float(np.median(h[loop]))
         if np.isfinite(grow) and perimeter > GROW_LOOP * circle:
