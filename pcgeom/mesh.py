@@ -29,7 +29,8 @@ import numpy as np
 __all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_ids",
            "unique_edges", "euler_characteristic", "close_loops", "compact", "mean_edge",
            "edge_sides", "unpaired", "boundary_loops", "main_part", "main_faces", "face_keys",
-           "smaller_fans", "one_fan", "successor_walks", "peel_rim", "RIM_ANGLE_DEG", "RIM_ANGLE"]
+           "smaller_fans", "one_fan", "successor_walks", "peel_rim", "RIM_ANGLE_DEG", "RIM_ANGLE",
+           "cross3", "corner_fans", "drop_smaller_fans"]
 
 RIM_ANGLE_DEG = 120.0
 """A rim triangle whose angle opposite its boundary edge is wider than this (degrees) is a
@@ -362,3 +363,58 @@ def peel_rim(P: np.ndarray, F: np.ndarray, angle: float = RIM_ANGLE, *, rounds: 
         kept[drop] = False
         np.subtract.at(uses, eid[np.concatenate([drop, drop + m, drop + 2 * m])], 1)
     return F[kept], int(m - kept.sum())
+
+
+def corner_fans(F: np.ndarray) -> np.ndarray:
+    """(3M,) the fan of each corner (node ``slot * M + tri``, at ``F[tri, slot]``): the
+    components of the triangles' corners, a corner joined to the corner at the same vertex
+    across each shared edge."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(F)
+    n = int(F.max()) + 1
+    H = half_edges(F)
+    key = H[:, 0] * n + H[:, 1]
+    order = np.argsort(key)
+    twin_key = H[:, 1] * n + H[:, 0]
+    at = np.minimum(np.searchsorted(key[order], twin_key), len(key) - 1)
+    twin = np.where(key[order][at] == twin_key, order[at], -1)
+    inner = np.flatnonzero(twin >= 0)
+    # Corner of half-edge k's start: (slot k // m, triangle k % m) -> node slot * m + tri.
+    # Half-edge a -> b in slot q starts at corner q and ends at corner q + 1; its twin
+    # b -> a in slot r starts at corner r (b) and ends at r + 1 (a).
+    q, t = inner // m, inner % m
+    r, u = twin[inner] // m, twin[inner] % m
+    rows = np.concatenate([q * m + t, ((q + 1) % 3) * m + t])
+    cols = np.concatenate([((r + 1) % 3) * m + u, r * m + u])
+    graph = sp.coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)),
+                          shape=(3 * m, 3 * m))
+    return connected_components(graph, directed=False)[1]
+
+
+def drop_smaller_fans(F: np.ndarray, rounds: int = 3) -> np.ndarray:
+    """The faces ``F`` (edge-manifold, consistently oriented) less, at each pinched vertex,
+    the triangles of every fan but the largest (most triangles; ties: the first), so that
+    the vertex has one fan; repeated while that pinches another (at most ``rounds`` times)."""
+    F = np.asarray(F, dtype=np.int64)
+    for _ in range(rounds):
+        if not len(F):
+            break
+        m = len(F)
+        label = corner_fans(F)
+        vertex = F.T.ravel()
+        size = np.bincount(label)
+        # The largest fan at each vertex: corners sorted by vertex, then by their fan's size.
+        order = np.lexsort((-size[label], vertex))
+        lead = np.full(int(F.max()) + 1, -1, dtype=np.int64)
+        v_sorted = vertex[order]
+        start = np.flatnonzero(np.r_[True, v_sorted[1:] != v_sorted[:-1]])
+        lead[v_sorted[start]] = label[order[start]]
+        off = label != lead[vertex]
+        if not off.any():
+            break
+        gone = np.zeros(m, dtype=bool)
+        gone[np.flatnonzero(off) % m] = True
+        F = F[~gone]
+    return F

@@ -150,3 +150,23 @@ def test_an_ear_into_a_small_loop_goes_and_the_loop_is_filled_flat(monkeypatch):
     assert not (G == 12).any()
     face = np.cross(X[G[:, 1]] - X[G[:, 0]], X[G[:, 2]] - X[G[:, 0]])
     assert (face[:, 2] > 0).all()
+
+
+def test_the_smaller_fan_of_a_pinched_vertex_goes():
+    """The grid's centre vertex with fans of one and three triangles (two triangles of its
+    star gone, not opposite): drop_smaller_fans keeps the three, and the vertex is manifold
+    (the repair's step with PINCH_FANS, off by default)."""
+    from pcgeom.mesh import drop_smaller_fans
+
+    a, b = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+    p = (a * 5 + b).ravel()
+    F = np.concatenate([np.stack([p, p + 5, p + 1], 1), np.stack([p + 1, p + 5, p + 6], 1)])
+    star = np.flatnonzero((F == 12).any(axis=1))
+    X = np.column_stack([np.repeat(np.arange(5.0), 5), np.tile(np.arange(5.0), 5)])
+    angle = np.arctan2(*(X[F[star]].mean(axis=1) - X[12]).T[::-1])
+    ring = star[np.argsort(angle)]
+    F = np.delete(F, [ring[0], ring[2]], axis=0)
+    assert measure(F)["pinched"] == 1
+    G = drop_smaller_fans(F)
+    assert len(G) == len(F) - 1 and (G == 12).sum() == 3 and measure(G)["pinched"] == 0
+    assert np.array_equal(drop_smaller_fans(G), G)

@@ -374,7 +374,7 @@ def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, *, outlier: np
     map), ``own_flips`` (each map's count, :func:`pcgeom.maps.localmesh.mesh_flips`) and the
     kept mesh's ``faces``, ``boundary_edges`` and ``unmeshed``."""
     best = first
-    counted = mesh_flips(Xn, first[1], first[0])
+    counted = _own_flips(Xn, first[1], first[0])
     flips, faces = [counted["count"]], counted["faces"]
     kept, stale, mesh, normals = 0, 0, first[1], first[2]
     best_said: list = []
@@ -394,7 +394,7 @@ def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, *, outlier: np
                     if mesh.main.mean() < MIN_MESHED or mesh.looks_closed:
                         raise InputError("not one open surface")
                     uv, stats = solve(mesh)
-                    counted = mesh_flips(Xn, mesh, uv)
+                    counted = _own_flips(Xn, mesh, uv)
                 except InputError:  # a degenerate mesh: this round counts as no better
                     counted = {"count": np.iinfo(np.int64).max, "faces": 0}
             flips.append(counted["count"])
@@ -413,6 +413,15 @@ def _normal_rounds(Xn: np.ndarray, first: tuple, solve, settings, *, outlier: np
         record.update(faces=mesh.n_faces, boundary_edges=mesh.boundary_edges,
                       unmeshed=int((~mesh.main).sum()), **topology_record(mesh.topology))
     return best
+
+
+def _own_flips(Xn: np.ndarray, mesh: LocalMesh, uv: np.ndarray) -> dict:
+    """:func:`pcgeom.maps.localmesh.mesh_flips` of the mesh with the smaller fans its repair
+    dropped at pinched vertices put back (:attr:`LocalMesh.pinch_fans`): they are where the
+    normals went wrong, which the normal rounds are to see."""
+    if mesh.pinch_fans is not None and len(mesh.pinch_fans):
+        mesh = dataclasses.replace(mesh, faces=np.concatenate([mesh.faces, mesh.pinch_fans]))
+    return mesh_flips(Xn, mesh, uv)
 
 
 def free_map(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, *,

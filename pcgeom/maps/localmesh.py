@@ -96,6 +96,9 @@ class LocalMesh:
     topology: Topology | None = None
     """The topology of the mesh's largest part and its repairs (:mod:`pcgeom.maps.topology`;
     None for a mesh not built by :func:`local_mesh`)."""
+    pinch_fans: np.ndarray | None = None
+    """(K, 3) the triangles the repair dropped as the smaller fans of pinched vertices
+    (:func:`pcgeom.maps.topology.drop_smaller_fans`); the normal rounds count their flips."""
 
     @property
     def n_faces(self) -> int:
@@ -358,15 +361,17 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     if knn is not None and knn.k >= SPACING_NEIGHBOURS:
         spacing = np.zeros(n)
         spacing[kept] = knn.first(SPACING_NEIGHBOURS)[0][:, 1:].mean(axis=1)
+    dropped: list = []
     if bridges:
         faces, topology = cut_bridges(X, normals, faces, repair, exclude=exclude,
-                                      spacing=spacing)
+                                      spacing=spacing, dropped=dropped)
     else:
-        faces, topology = repair(X, normals, faces, exclude=exclude, spacing=spacing)
+        faces, topology = repair(X, normals, faces, exclude=exclude, spacing=spacing,
+                                 dropped=dropped)
     main = main_part(faces, n)
     boundary = int(edge_sides(faces)[1].sum())
     return LocalMesh(faces=faces, main=main, boundary_edges=boundary, candidates=n_candidates,
-                     topology=topology)
+                     topology=topology, pinch_fans=dropped[-1] if dropped else None)
 
 
 def mesh_normals(X: np.ndarray, mesh: LocalMesh, previous: np.ndarray) -> np.ndarray:

@@ -36,7 +36,8 @@ boundary into a folded planar map. This module measures the mesh's topology and 
    wants a closed mesh.
 4. **Pinches** (libigl's ``is_vertex_manifold``) that a fill joined are repaired; the rest
    are split for the count (libigl's ``split_nonmanifold``) and kept in the mesh (LSCM maps
-   both fans; the disk and domain maps drop the smaller). Bridges between sheets (handles)
+   both fans; the disk and domain maps drop the smaller; dropping them before the fills,
+   :data:`PINCH_FANS`, is off: measured there). Bridges between sheets (handles)
    are counted in the genus, not cut: cutting the handles of face_human_choi's bare mesh
    (Tutte's embedding folds where they are, :func:`pcgeom.maps.injective._cut_handles`)
    made its free map worse, 0.033 to 0.074 rad.
@@ -54,7 +55,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..mesh import cross3, half_edges as _directed
+from ..mesh import corner_fans, cross3, drop_smaller_fans, face_keys, half_edges as _directed
 from .fills import refill_small_loops
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
@@ -76,6 +77,34 @@ holes 6.6 and 7.0 spacings in radius, the bound 7.1) was closed by the closing t
 it keeps both holes, while 32 closed clouds (4 shapes, uniform and scan, noise 0 and 0.25, 2k
 and 20k points), two 50k ones, the closed head and the shared open surfaces read the same
 topology at 2.5 as at 3.0."""
+
+PINCH_FANS = False
+"""Whether an open mesh loses, at each pinched vertex, every fan but the largest before its
+fills (:func:`drop_smaller_fans`; the loops through the vertex become one simple loop, which
+the fills may close), the fill pass then under the empty-circle rule (:data:`PINCH_EMPTY`:
+without it peaks_7holes_choi's true holes, spanned by the fans' long triangles, lose their
+last loops: 13 -> 4 loops for 8 true). Off: measured side by side (``fast``, one run,
+2026-12-05; today / off / on), the loops and the maps of the surfaces with near-touching
+sheets gain, but the pleats' and face_human_choi's angle lose:
+
+- loops (bare): peaks_7holes_choi 13 / 11 / 10 (its 8 true loops kept), peaks_three_cgal
+  6 / 6 / 4, face_3holes_small_choi 4 / 4 / 4, face_human_choi 49 / 46 / 29; pinched
+  vertices left 0;
+- free maps, bare: lips_sheet(11000, gap=0.75) 0.0844 / 0.0871 / 0.0496 rad, 5.10 / 5.03 /
+  4.42% flipped; face_human_choi 0.0331 / 0.0333 / 0.0342 rad, 856 / 851 / 750 flipped;
+  pleated_sheet(6000, folds=4, gap=1.5) 0.0525 / 0.0261 / 0.0357 rad, 33 / 41 / 112
+  flipped (disk 0.0308 -> 0.0446 rad); peaks_three_cgal 0.0413 -> 0.0398 rad, 8 -> 5
+  flipped; face_3holes_small_choi 0.0103 -> 0.0096;
+- with the mesh's normals: lips 0.0446 -> 0.0285 rad, 1.08 -> 0.82% flipped;
+  face_human_choi 0.0234 -> 0.0220 rad but 20 -> 33 flipped.
+
+(The normal rounds count the dropped fans' flips, :attr:`pcgeom.maps.localmesh.LocalMesh.
+pinch_fans`: without them the bare maps' own flips fell under the rounds' threshold where
+the fans were dropped, and the pleats lost their rounds, 0.0261 -> 0.0515 rad.)"""
+
+PINCH_EMPTY = 0.75
+"""With :data:`PINCH_FANS`, the fill pass's fills leave no empty circle wider than this times
+the bound (peaks_7holes_choi: 1.0 kept 4 of its 7 holes, 0.75 all 7)."""
 
 SPACING_NEIGHBOURS = 6
 """Nearest points whose mean distance is a point's local spacing."""
@@ -200,34 +229,11 @@ def _rim_next(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _fans(F: np.ndarray) -> np.ndarray:
-    """(n,) how many fans each vertex has (its triangles joined through the edges at it):
-    the components of the triangles' corners, a corner joined to the corner at the same
-    vertex across each shared edge."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
-
-    m = len(F)
-    n = int(F.max()) + 1
-    H = _directed(F)
-    key = H[:, 0] * n + H[:, 1]
-    order = np.argsort(key)
-    twin_key = H[:, 1] * n + H[:, 0]
-    at = np.minimum(np.searchsorted(key[order], twin_key), len(key) - 1)
-    twin = np.where(key[order][at] == twin_key, order[at], -1)
-    inner = np.flatnonzero(twin >= 0)
-    # Corner of half-edge k's start: (slot k // m, triangle k % m) -> node slot * m + tri.
-    # Half-edge a -> b in slot q starts at corner q and ends at corner q + 1; its twin
-    # b -> a in slot r starts at corner r (b) and ends at r + 1 (a).
-    q, t = inner // m, inner % m
-    r, u = twin[inner] // m, twin[inner] % m
-    rows = np.concatenate([q * m + t, ((q + 1) % 3) * m + t])
-    cols = np.concatenate([((r + 1) % 3) * m + u, r * m + u])
-    graph = sp.coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)),
-                          shape=(3 * m, 3 * m))
-    _, label = connected_components(graph, directed=False)
+    """(n,) how many fans each vertex has (its triangles joined through the edges at it)."""
+    label = corner_fans(F)
     vertex = F.T.ravel()  # node slot * m + tri is F[tri, slot]
     first = np.unique(label, return_index=True)[1]
-    return np.bincount(vertex[first], minlength=n)
+    return np.bincount(vertex[first], minlength=int(F.max()) + 1)
 
 
 def _cycles(following: np.ndarray) -> int:
@@ -542,8 +548,8 @@ def widest_empty(widths: np.ndarray) -> float:
 
 
 def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
-           exclude: np.ndarray | None = None, spacing: np.ndarray | None = None
-           ) -> tuple[np.ndarray, Topology]:
+           exclude: np.ndarray | None = None, spacing: np.ndarray | None = None,
+           dropped: list | None = None) -> tuple[np.ndarray, Topology]:
     """The local mesh with the surface's holes opened and the holes its sampling can leave
     filled (steps 1-2 of the module), and the topology of the result.
 
@@ -582,7 +588,15 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
             # A loop longer than any hole the sampling leaves: an open surface. The holes
             # the sampling leaves are filled where a flat fill closes them (a fold costs its
             # map).
-            faces, filled, _, _ = _fill_pass(X, normals, faces, h, bound, exclude, loops=loops)
+            if PINCH_FANS:
+                kept = drop_smaller_fans(faces)
+                if len(kept) < len(faces):
+                    if dropped is not None:
+                        gone = ~np.isin(face_keys(faces, n), face_keys(kept, n))
+                        dropped.append(faces[gone])
+                    faces, loops = kept, simple_loops(kept)
+            faces, filled, _, _ = _fill_pass(X, normals, faces, h, bound, exclude, loops=loops,
+                                             empty=PINCH_EMPTY if PINCH_FANS else None)
             faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude)
             filled += refilled
             return faces, _topology(before, pinched_before, *_measure(faces), filled, 0)
@@ -638,13 +652,15 @@ def _has_long_loop(X: np.ndarray, loops: list[np.ndarray], h: np.ndarray, radius
 
 def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
                bound: float, exclude: np.ndarray | None, *, folds: bool = False,
-               grow: float = 1.0, loops: list[np.ndarray] | None = None
-               ) -> tuple[np.ndarray, int, np.ndarray, int]:
+               grow: float = 1.0, loops: list[np.ndarray] | None = None,
+               empty: float | None = None) -> tuple[np.ndarray, int, np.ndarray, int]:
     """One pass of step 1's fills over the loops of ``faces``: the faces with the fills, how
     many, and the points of the loops that the sampling can leave (no longer than a circle
     of radius ``grow * bound`` spacings) but that no fill closes (every fill folds, unless
     ``folds``, or needs an edge the mesh has), and how many loops are left that are longer.
-    ``loops``: ``simple_loops(faces)``, when already found."""
+    ``loops``: ``simple_loops(faces)``, when already found. ``empty``: a fill is kept only
+    when no triangle of it leaves an empty circle round its circumcentre wider than this
+    times ``bound`` (as the re-mesh's rule, :data:`pcgeom.maps.fills.REFILL_WIDTH`)."""
     from scipy.spatial import cKDTree
 
     n = len(X)
@@ -660,11 +676,19 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
 
     meshed = np.flatnonzero(np.bincount(faces.ravel(), minlength=n) > 0)
     mesh_tree = cKDTree(X[meshed])
+    if empty is not None:
+        cloud = cKDTree(X if exclude is None else X[~np.asarray(exclude, dtype=bool)])
 
     def narrow(F: np.ndarray) -> bool:
         radius = enclosing_radius(X, F)
         if float((radius / np.maximum(h[F].mean(axis=1), 1e-300)).max()) > bound:
             return False
+        if empty is not None:
+            from .fills import _empty_radius
+
+            gap = _empty_radius(X, F, cloud) / np.maximum(h[F].mean(axis=1), 1e-300)
+            if float(gap.max()) > empty * bound:
+                return False
         # A fill over meshed points is a second sheet over the surface (a cap over a small
         # patch's rim), not a hole's: a few meshed points near its triangles at most (where
         # the mesh overlaps itself round a small hole), not a patch of them.
