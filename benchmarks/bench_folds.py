@@ -56,9 +56,12 @@ def rows_of(gap: float, seeds, work: Path, kind: str = "pleat") -> tuple[list[di
     if kind == "pleat":
         sheet = pleated_sheet(POINTS, folds=4, gap=gap)
         name = f"pleat, sheets {gap:g} spacings apart"
-    else:
+    elif kind == "deep":
         sheet = deep_folds(POINTS, gap=gap)
         name = f"deep folds, walls {gap:g} spacings apart"
+    else:  # uniform random sampling, as uneven as a scan gets
+        sheet = deep_folds(POINTS, gap=gap, sampling="uniform")
+        name = f"deep folds (uniform sampling), walls {gap:g} spacings apart"
     V, F = sheet.points, sheet.faces
     bare = work / f"{kind}_{gap:g}_bare.xyz"
     np.savetxt(bare, V)
@@ -81,6 +84,16 @@ def rows_of(gap: float, seeds, work: Path, kind: str = "pleat") -> tuple[list[di
         run = {"seed": seeds[0], "wall_s": float("nan"), "error": str(err)}
     rows.append(H.summary([run], case=name, points=len(V), input="bare",
                           method="16-neighbour normals (before; in process)"))
+    upright = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh,
+                                                                       facing=0.0))
+    runs = []
+    for seed in seeds:  # the same seeds as the CLI's rows: side by side
+        result, seconds = H.timed(pcgeom.parametrize, V, config=upright, seed=seed,
+                                  progress=False)
+        runs.append({"seed": seed, "wall_s": seconds, **H.score_map(result.uv, V, F)})
+    rows.append(H.summary(runs, case=name, points=len(V), input="bare",
+                          method="`fast`, standing triangles kept (facing 0: before issue 39's "
+                                 "upright mesh; in process)"))
     rows.append(H.summary([H.reference(lscm, V, F)], case=name, points=len(V),
                           input="true mesh", method="libigl LSCM", normals="-"))
     # The exact map (arc length across the folds, height along them), judged like the others:
@@ -163,7 +176,10 @@ def render(rows, boundaries, argv, rules=()) -> str:
         "3, 6 and 10 spacings deep, each a lip (quarter circle of radius 1 spacing), a wall, "
         "a half circle of diameter G at the bottom and the facing wall G spacings away; "
         "developable too, judged the same way against its exact map (issue 39: within 2x of "
-        "it, under 0.3% flipped, at 1.5 spacings and wider).", "",
+        "it, under 0.3% flipped, at 1.5 spacings and wider); the same sheet sampled uniformly at "
+        "random (`sampling=\"uniform\"`) too. The row \"standing triangles kept\" is `fast` "
+        "with `LocalMeshConfig.facing = 0`, the build before issue 39's upright mesh, run in "
+        "this process side by side.", "",
         *H.table([("case", "{case}"), ("input", "{input}"), ("method", "{method}"),
                   ("runs", "{runs}"),
                   ("mean abs angle, rad", lambda r: _cell(r, "rad", ".4f")),
@@ -200,7 +216,8 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     rows, boundaries = [], []
     with tempfile.TemporaryDirectory() as tmp:
-        for kind, gaps in (("pleat", args.gaps), ("deep", args.deep_gaps)):
+        for kind, gaps in (("pleat", args.gaps), ("deep", args.deep_gaps),
+                           ("uniform", args.deep_gaps)):
             for gap in gaps:
                 r, b = rows_of(gap, args.seeds, Path(tmp), kind)
                 rows += r
