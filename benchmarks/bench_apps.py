@@ -400,28 +400,37 @@ def render_strays(rows: list[dict], argv, meta: dict) -> str:
                ("seeds", "{runs}"), ("max / diag (range)", "{max}"), ("mean / diag", "{mean}"),
                ("slivers %", "{sliver}"), ("vertices", "{V}"), ("loops", "{loops}"),
                ("time s", "{s}")]
+    return side_section(
+        "Reconstruction of scans with strays (`bench_apps.py --strays`)", argv, meta, [
+            f"- clouds: each shared surface's vertices with depth noise of {STRAY_DEPTH} mean "
+            f"edge lengths (Gaussian along the clean mesh's vertex normals) and "
+            f"{STRAY_SHARE:.0%} strays: *box*, uniform in the bounding box enlarged by a fifth, "
+            "at least 4 edge lengths off the surface; *near*, surface points moved 3 to 20 edge "
+            "lengths along their normals; *none*, the depth noise alone (seeds as listed, "
+            "medians over them)",
+            "- pcgeom: `pcgeom reconstruct CLOUD --out MESH` with its defaults (preset fast, "
+            "`--denoise auto`, as many target vertices as the default 5000), a subprocess timed "
+            "from outside; *before*: the same command on the tree given as `--baseline`, in the "
+            "same run",
+            f"- MeshLab (pymeshlab, in process): ball pivoting (its radius guess); screened "
+            f"Poisson at depth 8 with normals from 10 neighbours, its triangles with a corner "
+            f"farther than {POISSON_TRIM:g} mean edge lengths from the cloud removed",
+            "- distances from the mesh (its vertices and 50 000 area samples) to the true mesh, "
+            f"over its bounding-box diagonal; slivers: triangles with an angle under "
+            f"{SLIVER_DEG:g} degrees; loops: the mesh's boundary loops per seed (the face has 4)",
+            "- target (issue 39 item 4): max <= 0.01, mean no worse than before, slivers <= 1%"],
+        columns, table)
+
+
+def side_section(title: str, argv, meta: dict, notes: list[str], columns, table) -> str:
+    """A section of ``--strays`` or ``--loops``: its title, the run's date, command and
+    versions, the notes, and the table."""
     return "\n".join([
-        "## Reconstruction of scans with strays (`bench_apps.py --strays`)", "",
+        f"## {title}", "",
         f"- date: {meta['date']}; {meta['machine']}; load average {meta['load_start']} at the "
         f"start, {meta['load_end']} at the end",
         f"- command: `python benchmarks/bench_apps.py {' '.join(map(str, argv))}`",
-        f"- versions: {meta['versions']}",
-        f"- clouds: each shared surface's vertices with depth noise of {STRAY_DEPTH} mean edge "
-        f"lengths (Gaussian along the clean mesh's vertex normals) and {STRAY_SHARE:.0%} "
-        "strays: *box*, uniform in the bounding box enlarged by a fifth, at least 4 edge "
-        "lengths off the surface; *near*, surface points moved 3 to 20 edge lengths along "
-        "their normals; *none*, the depth noise alone (seeds as listed, medians over them)",
-        "- pcgeom: `pcgeom reconstruct CLOUD --out MESH` with its defaults (preset fast, "
-        "`--denoise auto`, as many target vertices as the default 5000), a subprocess timed from "
-        "outside; *before*: the same command on the tree given as `--baseline`, in the same run",
-        f"- MeshLab (pymeshlab, in process): ball pivoting (its radius guess); screened Poisson "
-        f"at depth 8 with normals from 10 neighbours, its triangles with a corner farther than "
-        f"{POISSON_TRIM:g} mean edge lengths from the cloud removed",
-        "- distances from the mesh (its vertices and 50 000 area samples) to the true mesh, "
-        f"over its bounding-box diagonal; slivers: triangles with an angle under "
-        f"{SLIVER_DEG:g} degrees; loops: the mesh's boundary loops per seed (the face has 4)",
-        "- target (issue 39 item 4): max <= 0.01, mean no worse than before, slivers <= 1%", "",
-        *H.table(columns, table), ""])
+        f"- versions: {meta['versions']}", *notes, "", *H.table(columns, table), ""])
 
 
 # --------------------------------------------------------------------------- loops
@@ -532,29 +541,26 @@ def render_loops(rows: list[dict], argv, meta: dict) -> str:
                ("time s", lambda r: cell(r, "seconds", "{:.1f}"))]
     table = [r if not r.get("error") else f"| {r['surface']} | {r['input']} | "
              f"{r.get('version', '')} | failed: {r['error']} |" for r in rows]
-    return "\n".join([
-        "## Boundary loops a QC script can trust (`bench_apps.py --loops`)", "",
-        f"- date: {meta['date']}; {meta['machine']}; load average {meta['load_start']} at the "
-        f"start, {meta['load_end']} at the end",
-        f"- command: `python benchmarks/bench_apps.py {' '.join(map(str, argv))}`",
-        f"- versions: {meta['versions']}",
-        "- each cloud mapped once by `pcgeom param --preset fast` (seed 0); `pcgeom boundary "
-        "CLOUD --map MAP` *before* (the tree given as `--baseline`, in the same run) and *now*; "
-        "*now, no --map*: `pcgeom boundary CLOUD`, which maps the cloud itself (its loops "
-        "compared with the row above)",
-        "- inputs: the shared surfaces with their reference mesh's vertex normals (*normals*) "
-        "and without (*bare*); holed sheets (`pcgeom.synthetic_sheets.holed_sheet`, 6000 "
-        f"points, holes of radius {', '.join(f'{r:g}' for r in SHEET_RADII)} spacings, "
-        "smallest first in the y/n list; samplings uniform, grid: rows jittered by a quarter, "
-        "scan: density falling 4x across), bare",
-        "- holes: loops of kind `hole` (before: the clockwise loops); *holes that are not*: "
-        "fewer than half of their points on the true boundary; *true holes found*: a hole holds "
-        "at least half of a true hole's points; precision and recall of the kept loops' points "
-        "against the true boundary vertices",
-        "- targets (issue 39 item 3): same loops with and without `--map`; face_human_choi with "
-        "normals 1 outer loop, no hole; bare, every true hole found, recall >= 0.95, at most 2 "
-        "holes that are not; peaks_7holes_choi its 8 loops", "",
-        *H.table(columns, table), ""])
+    return side_section(
+        "Boundary loops a QC script can trust (`bench_apps.py --loops`)", argv, meta, [
+            "- each cloud mapped once by `pcgeom param --preset fast` (seed 0); `pcgeom "
+            "boundary CLOUD --map MAP` *before* (the tree given as `--baseline`, in the same "
+            "run) and *now*; *now, no --map*: `pcgeom boundary CLOUD`, which maps the cloud "
+            "itself (its loops compared with the row above)",
+            "- inputs: the shared surfaces with their reference mesh's vertex normals "
+            "(*normals*) and without (*bare*); holed sheets "
+            "(`pcgeom.synthetic_sheets.holed_sheet`, 6000 points, holes of radius "
+            f"{', '.join(f'{r:g}' for r in SHEET_RADII)} spacings, smallest first in the y/n "
+            "list; samplings uniform, grid: rows jittered by a quarter, scan: density falling "
+            "4x across), bare",
+            "- holes: loops of kind `hole` (before: the clockwise loops); *holes that are not*: "
+            "fewer than half of their points on the true boundary; *true holes found*: a hole "
+            "holds at least half of a true hole's points; precision and recall of the kept "
+            "loops' points against the true boundary vertices",
+            "- targets (issue 39 item 3): same loops with and without `--map`; face_human_choi "
+            "with normals 1 outer loop, no hole; bare, every true hole found, recall >= 0.95, at "
+            "most 2 holes that are not; peaks_7holes_choi its 8 loops"],
+        columns, table)
 
 
 def _map_arg(text: str) -> tuple[str, Path]:
@@ -605,19 +611,15 @@ def main(argv: list[str] | None = None) -> int:
             "versions": H.versions("pcgeom", "torch", "gmsh", "libigl", "pymeshlab")}
     if args.loops is not None:
         args.loops = args.loops or list(LOOP_SURFACES)
-        rows = loop_rows(args)
+    for chosen, rows_of, render_of, name in (
+            (args.loops, loop_rows, render_loops, "bench_apps_loops"),
+            (args.strays, strays_rows, render_strays, "bench_apps_strays")):
+        if chosen is None:
+            continue
+        rows = rows_of(args)
         meta["load_end"] = load()
-        section = render_loops(rows, sys.argv[1:] if argv is None else argv, meta)
-        H.write_section(args.out, "bench_apps_loops", section)
-        if args.json:
-            H.write_json(args.json, {"meta": meta, "rows": rows})
-        print(section)
-        return 0
-    if args.strays is not None:
-        rows = strays_rows(args)
-        meta["load_end"] = load()
-        section = render_strays(rows, sys.argv[1:] if argv is None else argv, meta)
-        H.write_section(args.out, "bench_apps_strays", section)
+        section = render_of(rows, sys.argv[1:] if argv is None else argv, meta)
+        H.write_section(args.out, name, section)
         if args.json:
             H.write_json(args.json, {"meta": meta, "rows": rows})
         print(section)

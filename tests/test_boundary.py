@@ -224,7 +224,37 @@ def test_cloud_spacing_opens_a_hole_that_the_map_shrank():
     # By default (kinds) the cloud's spacing casts the candidates, and the evidence keeps it.
     judged = detect_boundary(U, points=P)
     assert judged.kinds() == ["outer", "hole"] and judged.gaps == []
-    np.testing.assert_array_equal(judged.loops[1], opened.loops[1])
+    # ... and walks through the notches of the square hole's rim too: its four corners.
+    corners = {(6, 6), (13, 6), (6, 13), (13, 13)}
+    ij = list(zip(i[keep].tolist(), j[keep].tolist()))
+    assert {ij[k] for k in judged.loops[1]} >= {ij[k] for k in opened.loops[1]} | corners
+
+
+def test_a_holes_loop_walks_through_the_notches_of_its_rim(monkeypatch):
+    """Issue 39 item 3: a round hole cut out of a triangulated grid (every triangle at a
+    removed point dropped) has a rim two points thick in places: the points set back between
+    two rim points are on the reference's boundary too. The hole's loop holds all of them."""
+    import pcgeom.apps.boundary as boundary
+
+    n, rad = 16, 3.2
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), indexing="xy"))
+    q = np.arange(n * n).reshape(n, n)
+    F = np.concatenate([np.stack([q[:-1, :-1], q[:-1, 1:], q[1:, 1:]], -1).reshape(-1, 3),
+                        np.stack([q[:-1, :-1], q[1:, 1:], q[1:, :-1]], -1).reshape(-1, 3)])
+    gone = np.hypot(i - 7.8, j - 7.8) < rad
+    F = F[~gone[F].any(axis=1)]  # the reference mesh
+    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    edges, count = np.unique(E, axis=0, return_counts=True)
+    rim = np.zeros(n * n, dtype=bool)
+    rim[edges[count == 1]] = True
+    rim &= np.hypot(i - 7.8, j - 7.8) < n / 2 - 1  # the hole's, not the sheet's
+    P = np.column_stack([i + 0.2 * j, j, 0.1 * i]).astype(np.float64)[~gone]
+    ring = set(np.flatnonzero(rim[~gone]).tolist())
+    found = detect_boundary(P[:, :2], points=P)
+    assert found.kinds() == ["outer", "hole"] and len(ring) == 24
+    assert ring <= set(found.loops[1]) and len(set(found.loops[1]) - ring) <= 4
+    monkeypatch.setattr(boundary, "NOTCH_ROUNDS", 0)  # the map's rule alone: 20 of 24
+    assert len(ring & set(detect_boundary(P[:, :2], points=P).loops[1])) == 20
 
 
 def test_min_width_measures_holes_on_the_surface_and_drops_the_narrow_ones():
@@ -432,11 +462,12 @@ def test_cli_with_a_map_writes_the_loops(tmp_path, capsys):
     assert code == 0
     doc = json.loads(out.read_text())
     assert doc["h"] is None and doc["n_points"] == len(U)
-    assert [len(loop) for loop in doc["loops"]] == [44, 12]
-    assert doc["loops"] == [loop.tolist() for loop in detect_boundary(U).loops]
+    # The 3 x 3 block's rim: 12 points, and its 4 corners (notches, carved with the cloud).
+    assert [len(loop) for loop in doc["loops"]] == [44, 16]
+    assert doc["loops"] == [loop.tolist() for loop in detect_boundary(U, points=P).loops]
     assert "2 boundary loop(s)" in stdout
     assert "loop 1 (outer): 44 points" in stdout
-    assert "loop 2 (hole): 12 points, 2.0 spacings wide" in stdout  # a 4 x 4 gap
+    assert "loop 2 (hole): 16 points" in stdout
     # Issue 39 item 3: every loop's evidence and kind, the gaps apart (none here).
     assert doc["kinds"] == ["outer", "hole"] and doc["gaps"] == doc["gap_evidence"] == []
     hole = doc["loop_evidence"][1]
@@ -593,12 +624,14 @@ def test_a_tear_of_the_map_is_a_gap_and_the_hole_stays_a_hole():
     assert [len(loop) for loop in every.loops] == [104, 20, 14]
     judged = detect_boundary(U, points=P)
     assert judged.kinds() == ["outer", "hole"]
-    np.testing.assert_array_equal(judged.loops[1], every.loops[1])
+    assert set(every.loops[1]) < set(judged.loops[1])  # and the notches of its rim
     assert len(judged.gaps) == 1 and judged.gap_evidence[0]["kind"] == "gap"
     assert set(every.loops[2]) <= set(judged.gaps[0])  # the tear, spanned and set apart
     assert judged.gap_evidence[0]["empty_ratio"] < 1.15 < judged.evidence[1]["empty_ratio"]
     # The tear's triangles are kept: the surface spans it, so a reconstruction does too.
-    assert len(judged.triangles) > len(every.triangles)
+    tear = every.removed[np.isin(every.removed, every.loops[2]).all(axis=1)]
+    kept = {tuple(t) for t in np.sort(judged.triangles, axis=1).tolist()}
+    assert len(tear) and all(tuple(t) in kept for t in np.sort(tear, axis=1).tolist())
     doc = judged.to_dict()
     assert doc["gaps"] == [judged.gaps[0].tolist()] and doc["kinds"] == ["outer", "hole"]
 
