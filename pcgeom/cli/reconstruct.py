@@ -59,7 +59,8 @@ examples:
       the fitted points, not the noisy ones
 
 With a map made of denoised points (pcgeom param --denoise, or auto on a noisy scan), the
-mesh is lifted over the fitted points the map file keeps, and the distances below are to them.
+mesh is lifted over the fitted points the map file keeps (the loops' points smoothed along
+their loops: a rim point's fit is one-sided), and the distances below are to them.
 Strays (points the map's local mesh leaves out, or that the outlier test flags for a map
 without one) are never lifted: the mesh is made over the inliers only (--json: n_strays, and
 max_offset_spacings, the farthest vertex from them in their median point spacing).
@@ -160,7 +161,8 @@ def run(args) -> int:
                          "reconstruction would be empty")
     V, F, Q, report = reconstruct_surface(lifted, uv, loops, size=args.size,
                                           target_vertices=args.target_vertices or 5000,
-                                          lambda_inv=lambda_inv, return_uv=True)
+                                          lambda_inv=lambda_inv, return_uv=True,
+                                          smooth_rim=result.fitted is not None)
     report.update(_write(args, out, V, F, Q), n_strays=len(points) - len(rows))
     summary = _summary(args, points, result, out, report, n_loops_detected=len(loops.loops))
     return _print(args, points, report, summary,
@@ -213,7 +215,8 @@ def _on_domain(args, inliers, result, domain, out) -> int:
                       "(the free boundary)", UserWarning, stacklevel=2)
     V, F, Q, report = reconstruct_on_domain(points, uv, domain, size=args.size,
                                             target_vertices=args.target_vertices or 5000,
-                                            lambda_inv=lambda_inv, return_uv=True)
+                                            lambda_inv=lambda_inv, return_uv=True,
+                                          smooth_rim=result.fitted is not None)
     report.update(_write(args, out, V, F, Q), n_strays=len(result.uv) - len(points))
     summary = _summary(args, result.uv, result, out, report)
     return _print(args, result.uv, report, summary, _loops_line(

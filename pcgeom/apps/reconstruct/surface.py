@@ -10,6 +10,7 @@ from ...errors import InputError
 from ..boundary import BoundaryLoops
 from ..planar import validate_map
 from .gmsh_mesh import gmsh_meshed, mesh_domain, mesh_region
+from . import lifting
 from .lifting import lift, map_delaunay
 from .report import mesh_report
 
@@ -18,7 +19,8 @@ SIZES = ("uniform", "adaptive")
 
 
 def reconstruct_surface(points, U, loops: BoundaryLoops, *, size: str = "uniform",
-                        target_vertices: int = 5000, lambda_inv=None, return_uv: bool = False):
+                        target_vertices: int = 5000, lambda_inv=None, return_uv: bool = False,
+                        smooth_rim: bool = False):
     """Triangle mesh of the surface sampled by ``points``, remeshed in its free-boundary map.
 
     Parameters
@@ -42,6 +44,10 @@ def reconstruct_surface(points, U, loops: BoundaryLoops, *, size: str = "uniform
     return_uv : bool
         Also return each vertex's position in the map (the mesh was made there): its texture
         coordinates up to :func:`pcgeom.apps.texture.uv_scaling`.
+    smooth_rim : bool
+        For a denoised cloud (``ParamResult.fitted``): the loops' points smoothed along their
+        loops before lifting (:func:`pcgeom.apps.reconstruct.lifting.smooth_rim`: a rim
+        point's fit is one-sided, the least certain).
 
     Returns
     -------
@@ -67,9 +73,11 @@ def reconstruct_surface(points, U, loops: BoundaryLoops, *, size: str = "uniform
         raise TypeError(f"loops: expected BoundaryLoops (from detect_boundary), "
                         f"got {type(loops).__name__}")
     Q, F = gmsh_meshed("the region", mesh_region, U, loops, target_vertices, relative)
-    V, outside = lift(P, U, loops.triangles, Q)
+    lifted = lifting.smooth_rim(P, loops.loops) if smooth_rim else P
+    V, outside = lift(lifted, U, loops.triangles, Q)
     report = mesh_report(V, F, P)
-    report.update(n_outside=int(outside.sum()), size=size, target_vertices=int(target_vertices))
+    report.update(n_outside=int(outside.sum()), size=size, target_vertices=int(target_vertices),
+                  smooth_rim=bool(smooth_rim))
     return (V, F, Q, report) if return_uv else (V, F, report)
 
 
