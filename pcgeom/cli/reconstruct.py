@@ -215,8 +215,7 @@ def _on_domain(args, inliers, result, domain, out) -> int:
                       "(the free boundary)", UserWarning, stacklevel=2)
     V, F, Q, report = reconstruct_on_domain(points, uv, domain, size=args.size,
                                             target_vertices=args.target_vertices or 5000,
-                                            lambda_inv=lambda_inv, return_uv=True,
-                                          smooth_rim=result.fitted is not None)
+                                            lambda_inv=lambda_inv, return_uv=True)
     report.update(_write(args, out, V, F, Q), n_strays=len(result.uv) - len(points))
     summary = _summary(args, result.uv, result, out, report)
     return _print(args, result.uv, report, summary, _loops_line(
