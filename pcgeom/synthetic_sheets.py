@@ -214,7 +214,25 @@ def lips_fold_scale(params: np.ndarray, *, gap: float = 0.75,
 
 
 def _lips_point(P, scales, nose, mouth, u_nose, u_mouth):
-    """3D points and normals of the lips sheet at parameters ``P`` (u, y)."""
+    """3D points and normals of the lips sheet at parameters ``P`` (u, y).
+
+    The normal is ``dX/du x dX/dy``: where the nostrils' scale changes along y, the flat
+    and the mouth after them shift along x with y (the mouth's walls lean by up to 60
+    degrees off the xz-plane), so the profile's own normal ``(-tz, 0, tx)`` is not the
+    surface's there (it was, before 2026-12-05: up to 60 degrees off on the mouth's
+    walls)."""
+    X, tx, tz = _lips_xz(P, scales, nose, mouth, u_nose, u_mouth)
+    h = 1e-5
+    dy = (_lips_xz(P + [0.0, h], scales, nose, mouth, u_nose, u_mouth)[0]
+          - _lips_xz(P - [0.0, h], scales, nose, mouth, u_nose, u_mouth)[0]) / (2 * h)
+    # (tx, 0, tz) x (a, 1, c) with (a, 1, c) = dX/dy.
+    N = np.column_stack([-tz, tz * dy[:, 0] - tx * dy[:, 2], tx])
+    return X, N / np.linalg.norm(N, axis=1, keepdims=True)
+
+
+def _lips_xz(P, scales, nose, mouth, u_nose, u_mouth):
+    """3D points of the lips sheet at parameters ``P`` (u, y) and their profile's unit
+    tangent (tx, tz) along u."""
     u, y = P[:, 0], P[:, 1]
     s_n, s_m = scales(y)
     L_n, L_m = _fold_length(s_n, nose), _fold_length(s_m, mouth)
@@ -236,9 +254,7 @@ def _lips_point(P, scales, nose, mouth, u_nose, u_mouth):
     x[d], z[d], tx[d], tz[d] = u_mouth + shift_n[d] + L_n[d] + fx, fz, ftx, ftz
     e = u >= u_mouth + L_n + L_m
     x[e] = u[e] + shift_n[e] + W_m[e] - L_m[e]
-    X = np.column_stack([x, y, z])
-    N = np.column_stack([-tz, np.zeros(len(u)), tx])
-    return X, N
+    return np.column_stack([x, y, z]), tx, tz
 
 
 def holed_sheet(n: int = 6000, *, radii: tuple[float, ...] = (1.0, 2.0, 3.0, 4.0, 5.0),
