@@ -34,8 +34,10 @@ So for a denoised cloud the loops' points are first smoothed along their loops, 
 ``(p_prev + 2 p + p_next) / 4`` step (:func:`smooth_rim`; ``reconstruct_surface(...,
 smooth_rim=True)``, as ``pcgeom reconstruct`` does for a denoised map). Measured on
 face_3holes_small_choi with depth noise of half a spacing and 1% strays (seeds 0-4, box and
-near strays): the farthest point of the mesh 0.0076-0.0094 of the diagonal before and
-0.0075-0.0108 after... see BENCHMARKS.md (bench_apps_strays); the mean unchanged.
+near strays, and the depth noise alone, side by side with the mesh lifted as it was): the
+farthest point of the mesh 0.0075-0.0094 of the diagonal, from 0.0072-0.0108 (the 0.0108: a
+near stray within the noise's tail on the rim, its fit 1.0 mean edge off); the mean within
+1% (BENCHMARKS.md, ``bench_apps_strays``).
 """
 
 from __future__ import annotations
