@@ -330,7 +330,8 @@ def _write_extras(job: dict, points, result: ParamResult, paths: dict, todo: lis
     from .boundary import detect_boundary
 
     # As pcgeom boundary and pcgeom reconstruct do: the loops judged on the points the map was
-    # made of, and the mesh lifted over the inliers only (strays never lifted).
+    # made of, and the mesh lifted over the inliers only (strays never lifted), a denoised
+    # map's rims smoothed along their loops first.
     surface = result.fitted if result.fitted is not None else points
     if "loops" in todo:
         found = detect_boundary(result.uv, points=surface)
@@ -343,7 +344,8 @@ def _write_extras(job: dict, points, result: ParamResult, paths: dict, todo: lis
         lam = result.lambda_inv[rows] if result.lambda_inv is not None else None
         V, F, _ = reconstruct_surface(surface[rows], result.uv[rows],
                                       detect_boundary(result.uv[rows], points=surface[rows]),
-                                      target_vertices=job["target_vertices"], lambda_inv=lam)
+                                      target_vertices=job["target_vertices"], lambda_inv=lam,
+                                      smooth_rim=result.fitted is not None)
         write_ply_atomic(paths["mesh"], V, F)
 
 
