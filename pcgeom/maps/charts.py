@@ -330,7 +330,9 @@ def fit_charts(V: np.ndarray, F: np.ndarray, max_stretch: float, *, roots: int =
     The pieces are opened by the shortest cut graph :func:`pcgeom.maps.seams.cut_graph`
     finds from ``roots`` roots; when its charts need slits or splits (a short cut leaves more
     area distortion), the charts from the one-root tree-cotree cut are made too and the
-    atlas with the shorter seams (slits and splits counted) is kept.
+    atlas with the shorter seams (slits and splits counted) is kept; not made when the
+    tree-cotree cut graph alone is already as long as the short atlas's seams (the pretzels
+    of genus 3 and 4: their short atlases need splits, yet stay shorter than that cut).
 
     Each chart's ``info["ok"]`` says it has no flip and a simple boundary; its spread may stay
     over ``max_stretch`` when its slits and splits are spent (``info["spread"]``).
@@ -341,6 +343,8 @@ def fit_charts(V: np.ndarray, F: np.ndarray, max_stretch: float, *, roots: int =
     own = _rim_length(V, whole)
     best = None
     for r in dict.fromkeys([max(int(roots), 1), 1]):
+        if best is not None and best[1]["seam_length"] <= _tree_cotree_length(V, pieces):
+            break  # the tree-cotree cut alone is as long as the short atlas's seams
         out, tally = _fit(V, pieces, max_stretch, roots=r, slits=slits, depth=depth)
         tally["seam_length"] = sum(_rim_length(V, c) for c in out) / 2 - own / 2
         tally["cut"] = "short" if tally["short"] else "tree-cotree"
@@ -349,6 +353,12 @@ def fit_charts(V: np.ndarray, F: np.ndarray, max_stretch: float, *, roots: int =
         if not tally["short"] or not (tally["slits"] or tally["splits"] or tally["tutte"]):
             break
     return best
+
+
+def _tree_cotree_length(V: np.ndarray, pieces: list[Piece]) -> float:
+    """The length of the one-root tree-cotree cut graphs of the pieces that are not disks:
+    what the tree-cotree atlas's seams start from (its slits and splits add to it)."""
+    return sum(cut_graph(V[p.origin], p.F)[2]["length"] for p in pieces if not _is_disk(p.F))
 
 
 def _rim_length(V: np.ndarray, piece: Piece) -> float:
