@@ -10,7 +10,7 @@ import pytest
 import scipy.sparse as sp
 
 from pcgeom.maps import _sparse
-from pcgeom.maps._sparse import solver_name, spd_factor
+from pcgeom.maps._sparse import SymbolicCache, solver_name, spd_factor
 
 
 def _laplacian(n: int = 30, shift: float = 1e-3) -> sp.csr_matrix:
@@ -153,7 +153,7 @@ def test_a_failing_cholesky_gives_way_to_the_next_with_one_line(monkeypatch):
     pytest.importorskip("cvxopt")
     pytest.importorskip("cholespy")
 
-    def broken(module, A, order=None):
+    def broken(module, A, order=None, cache=None):
         raise ValueError("symbolic factorization failed\nsecond line")
 
     monkeypatch.setattr(_sparse, "_cholmod", broken)
@@ -166,3 +166,24 @@ def test_a_failing_cholesky_gives_way_to_the_next_with_one_line(monkeypatch):
     assert solver_name() == "cholespy" and np.abs(A @ x - b).max() < 1e-9
     with pytest.raises(ValueError, match="symbolic factorization failed"):
         spd_factor(A, solver="cholmod")
+
+
+def test_symbolic_cache_reuses_the_analysis_of_one_pattern_only(monkeypatch):
+    cholmod = pytest.importorskip("cvxopt.cholmod")
+    calls = []
+    symbolic = cholmod.symbolic
+    monkeypatch.setattr(cholmod, "symbolic", lambda *a, **k: calls.append(1) or symbolic(*a, **k))
+    A = _laplacian(20)
+    b = np.random.default_rng(1).normal(size=A.shape[0])
+    cache = SymbolicCache()
+    scaled = A.copy()
+    scaled.data *= np.linspace(1.0, 3.0, len(scaled.data))
+    scaled = (scaled + scaled.T).tocsr()  # the same pattern, other values
+    for M in (A, scaled):  # the same solution bit for bit as a fresh analysis
+        np.testing.assert_array_equal(spd_factor(M, cache=cache)(b), spd_factor(M)(b))
+    assert cache.hits == 1 and len(calls) == 3
+    denser = A + sp.diags([1e-3], [5], shape=A.shape) + sp.diags([1e-3], [-5], shape=A.shape)
+    np.testing.assert_array_equal(spd_factor(denser, cache=cache)(b), spd_factor(denser)(b))
+    assert cache.hits == 1 and len(calls) == 5  # another pattern: analysed again
+    not_pd = -A
+    assert spd_factor(not_pd, cache=cache) is not None and cache.key is None  # LU; forgotten

@@ -20,7 +20,8 @@ import warnings
 
 import numpy as np
 
-__all__ = ["spd_factor", "solver_name", "ordering_name", "fill_order", "SOLVERS", "METIS_UNKNOWNS"]
+__all__ = ["spd_factor", "SymbolicCache", "solver_name", "ordering_name", "fill_order", "SOLVERS",
+           "METIS_UNKNOWNS"]
 
 SOLVERS = ("cholmod", "cholespy", "superlu")
 """The factorizations :func:`spd_factor` can use, preferred first."""
@@ -119,31 +120,82 @@ def fill_order(graph, unknowns: np.ndarray) -> np.ndarray | None:
     return order[order >= 0]
 
 
-def _cholmod(cvxopt, A, order=None):
+class SymbolicCache:
+    """CHOLMOD's symbolic analysis (ordering, elimination tree, supernodes) of the last
+    matrix :func:`spd_factor` factored with it, reused for the next one with the same
+    sparsity pattern and order, which is then only refactored numerically: the same factor
+    to rounding, as the analysis reads the pattern only. For a sequence of systems of one
+    pattern, such as the Newton steps of an optimization. Measured on the injective map's
+    barrier of the three peaks (14k points, 4 landmarks): the analysis was 1.3 s of its
+    Newton steps' 7 s.
+
+    The factor is refactored in place: a ``solve`` that :func:`spd_factor` returned with
+    this cache is only valid until its next call with it. Solvers other than CHOLMOD ignore
+    it."""
+
+    def __init__(self):
+        self.key = None  # (indptr, indices, order) of the analysed lower triangle
+        self.factor = None
+        self.hits = 0
+        """How many factorizations reused the analysis."""
+
+    def lookup(self, lower, order):
+        """The analysed factor for the pattern of ``lower`` (csc) and ``order``, or None."""
+        if self.key is None:
+            return None
+        indptr, indices, known = self.key
+        same_order = (known is None) == (order is None) and (
+            order is None or np.array_equal(known, order))
+        if (same_order and np.array_equal(indptr, lower.indptr)
+                and np.array_equal(indices, lower.indices)):
+            self.hits += 1
+            return self.factor
+        return None
+
+    def store(self, lower, order, factor) -> None:
+        """Keep ``factor``, the analysis of ``lower``'s pattern in ``order``."""
+        self.key = (lower.indptr.copy(), lower.indices.copy(),
+                    None if order is None else np.array(order, copy=True))
+        self.factor = factor
+
+    def clear(self) -> None:
+        """Forget the analysis (after a factorization that failed)."""
+        self.key = self.factor = None
+
+
+def _cholmod(cvxopt, A, order=None, cache: SymbolicCache | None = None):
     """CHOLMOD's factor of ``A`` (its lower triangle) by cvxopt, in the elimination order
-    ``order`` (else its own AMD), or None when it is not positive definite."""
+    ``order`` (else its own AMD), or None when it is not positive definite; the symbolic
+    analysis from ``cache`` when it holds that of ``A``'s pattern."""
     import scipy.sparse as sp
 
     lower = sp.tril(A, format="csc")
     cols = np.repeat(np.arange(lower.shape[1], dtype=np.int64), np.diff(lower.indptr))
     M = cvxopt.spmatrix(cvxopt.matrix(lower.data), cvxopt.matrix(lower.indices.astype(np.int64)),
                         cvxopt.matrix(cols), lower.shape)
-    del lower, cols
-    options = cvxopt.cholmod.options  # module-wide: CHOLMOD's defaults here, the caller's after
-    saved = dict(options)
-    options.clear()
-    try:
-        if order is not None:
-            options["nmethods"] = 1  # the order given, not AMD's too (0.5 s at 300k points)
-            factor = cvxopt.cholmod.symbolic(M, p=cvxopt.matrix(np.asarray(order, np.int64)))
-        else:
-            factor = cvxopt.cholmod.symbolic(M)
-    finally:
+    del cols
+    factor = None if cache is None else cache.lookup(lower, order)
+    if factor is None:
+        options = cvxopt.cholmod.options  # module-wide: CHOLMOD's defaults here, the caller's after
+        saved = dict(options)
         options.clear()
-        options.update(saved)
+        try:
+            if order is not None:
+                options["nmethods"] = 1  # the order given, not AMD's too (0.5 s at 300k points)
+                factor = cvxopt.cholmod.symbolic(M, p=cvxopt.matrix(np.asarray(order, np.int64)))
+            else:
+                factor = cvxopt.cholmod.symbolic(M)
+        finally:
+            options.clear()
+            options.update(saved)
+        if cache is not None:
+            cache.store(lower, order, factor)
+    del lower
     try:
         cvxopt.cholmod.numeric(M, factor)
     except ArithmeticError:  # not positive definite
+        if cache is not None:
+            cache.clear()
         return None
 
     def solve(b):
@@ -173,12 +225,17 @@ def _cholespy(cholespy, A):
     return solve
 
 
-def spd_factor(A, *, solver: str = "auto", order: np.ndarray | None = None):
+def spd_factor(A, *, solver: str = "auto", order: np.ndarray | None = None,
+               cache: SymbolicCache | None = None):
     """Factor the symmetric positive definite sparse ``A`` once; returns ``solve(b)`` for
     ``b`` of shape (n,) or (n, k).
 
     ``order``: a fill-reducing permutation of the unknowns (:func:`fill_order`), used by
     CHOLMOD (the others order the matrix themselves).
+
+    ``cache``: a :class:`SymbolicCache` whose CHOLMOD symbolic analysis is reused when ``A``
+    has the pattern it analysed (else it analyses ``A`` and keeps that); the returned
+    ``solve`` is then valid until the next call with the same cache.
 
     ``solver``: ``"auto"`` (the first of :data:`SOLVERS` that loads and factors, with a
     one-line warning for one that fails; SuperLU's LU when the matrix is not positive
@@ -207,9 +264,11 @@ def spd_factor(A, *, solver: str = "auto", order: np.ndarray | None = None):
             missing.append(name)
             continue
         try:
-            solve = (_cholmod(module, A, order) if name == "cholmod"
+            solve = (_cholmod(module, A, order, cache) if name == "cholmod"
                      else _cholespy(module, A))
         except (ValueError, RuntimeError, MemoryError) as err:
+            if cache is not None:
+                cache.clear()
             if solver == name:
                 raise
             # A solver that fails where it should not (its own bug, its memory): the next.

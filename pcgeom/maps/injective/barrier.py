@@ -13,6 +13,7 @@ from .energies import _barrier, _barrier_hessian
 from .jacobians import (_det_cof, _jacobian_matrices, _jacobians, _scatter, flipped,
                         reference_triangles)
 from .linesearch import max_feasible_step
+from .._sparse import SymbolicCache
 from .newton import _Assembly, _lbfgs_direction, _newton_factor
 from .rings import _Layout
 
@@ -117,10 +118,11 @@ def _descend(V: np.ndarray, F: np.ndarray, layout: _Layout, config: BarrierConfi
     history = [E]
     evaluations, it, steps_cut = 1, 0, 0
     solve, age = None, 0
+    cache = SymbolicCache()  # the Hessians share their pattern: CHOLMOD analyses it once
     for it in range(1, config.iterations + 1):
         if newton:
             if solve is None or age >= config.refactor:
-                solve, age = _newton_factor(hessian(W, frames, gU)), 0
+                solve, age = _newton_factor(hessian(W, frames, gU), cache), 0
             d, age = -solve(g), age + 1
         else:
             d = _lbfgs_direction(g, S, Y)

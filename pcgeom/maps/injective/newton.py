@@ -32,20 +32,22 @@ class _Assembly:
         return sp.csr_matrix((data, (self.rows, self.cols)), shape=self.shape)
 
 
-def _newton_factor(H):
+def _newton_factor(H, cache=None):
     """The solve of the sparse PSD ``H`` (the variables' Hessian), shifted by a tiny multiple
-    of its mean diagonal where the projection left it singular."""
+    of its mean diagonal where the projection left it singular. ``cache``: a
+    :class:`pcgeom.maps._sparse.SymbolicCache` reused across steps (the Hessians of one
+    optimization share their pattern); the solve is then valid until its next use."""
     import scipy.sparse as sp
 
     from .._sparse import spd_factor
 
     shift = 1e-9 * max(float(H.diagonal().mean()), 1e-300)
-    return spd_factor((H + shift * sp.identity(H.shape[0], format="csr")).tocsc())
+    return spd_factor((H + shift * sp.identity(H.shape[0], format="csr")).tocsc(), cache=cache)
 
 
-def _newton_step(H, g: np.ndarray) -> np.ndarray:
+def _newton_step(H, g: np.ndarray, cache=None) -> np.ndarray:
     """``-H^-1 g`` (:func:`_newton_factor`)."""
-    return -_newton_factor(H)(g)
+    return -_newton_factor(H, cache)(g)
 
 
 def _newton_minimize(fun, hessian, z: np.ndarray, eps: float, steps: int
@@ -53,10 +55,13 @@ def _newton_minimize(fun, hessian, z: np.ndarray, eps: float, steps: int
     """Projected Newton on the smooth ``fun(z, eps)`` (value, gradient), Armijo
     backtracking; stops when a step lowers the value by less than 1e-9 of it. Returns ``z``,
     the value, the steps and the evaluations."""
+    from .._sparse import SymbolicCache
+
     E, g = fun(z, eps)
     evaluations, it = 1, 0
+    cache = SymbolicCache()
     for it in range(1, steps + 1):
-        d = _newton_step(hessian(z, eps), g)
+        d = _newton_step(hessian(z, eps), g, cache)
         slope = float(g @ d)
         if slope >= 0:
             d, slope = -g, -float(g @ g)
