@@ -26,10 +26,9 @@ def test_measure_of_analytic_meshes():
     assert (got["euler"], got["boundary_loops"], got["genus"]) == (1, 1, 0)
 
 
-def test_a_pinched_vertex_is_counted_split():
-    """A grid whose centre vertex lost two opposite triangles of its star: its two fans meet
-    there only (libigl's is_vertex_manifold finds it). Split, the two gaps are one hole
-    through it: an annulus (Euler characteristic 0, two boundary loops, genus 0)."""
+def _grid_without(*gone: int) -> np.ndarray:
+    """The faces of a 5 x 5 vertex grid without the triangles ``gone`` (positions 0-5 by angle)
+    of its centre vertex 12's star of six."""
     a, b = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
     p = (a * 5 + b).ravel()
     F = np.concatenate([np.stack([p, p + 5, p + 1], 1), np.stack([p + 1, p + 5, p + 6], 1)])
@@ -37,7 +36,14 @@ def test_a_pinched_vertex_is_counted_split():
     X = np.column_stack([np.repeat(np.arange(5.0), 5), np.tile(np.arange(5.0), 5)])
     angle = np.arctan2(*(X[F[star]].mean(axis=1) - X[12]).T[::-1])
     ring = star[np.argsort(angle)]  # its six triangles around it
-    F = np.delete(F, [ring[0], ring[3]], axis=0)
+    return np.delete(F, ring[list(gone)], axis=0)
+
+
+def test_a_pinched_vertex_is_counted_split():
+    """A grid whose centre vertex lost two opposite triangles of its star: its two fans meet
+    there only (libigl's is_vertex_manifold finds it). Split, the two gaps are one hole
+    through it: an annulus (Euler characteristic 0, two boundary loops, genus 0)."""
+    F = _grid_without(0, 3)
     got = measure(F)
     assert got["pinched"] == 1
     assert (got["euler"], got["boundary_loops"], got["genus"]) == (0, 2, 0), got
@@ -158,14 +164,7 @@ def test_the_smaller_fan_of_a_pinched_vertex_goes():
     (the repair's step with PINCH_FANS, off by default)."""
     from pcgeom.mesh import drop_smaller_fans
 
-    a, b = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
-    p = (a * 5 + b).ravel()
-    F = np.concatenate([np.stack([p, p + 5, p + 1], 1), np.stack([p + 1, p + 5, p + 6], 1)])
-    star = np.flatnonzero((F == 12).any(axis=1))
-    X = np.column_stack([np.repeat(np.arange(5.0), 5), np.tile(np.arange(5.0), 5)])
-    angle = np.arctan2(*(X[F[star]].mean(axis=1) - X[12]).T[::-1])
-    ring = star[np.argsort(angle)]
-    F = np.delete(F, [ring[0], ring[2]], axis=0)
+    F = _grid_without(0, 2)
     assert measure(F)["pinched"] == 1
     G = drop_smaller_fans(F)
     assert len(G) == len(F) - 1 and (G == 12).sum() == 3 and measure(G)["pinched"] == 0
