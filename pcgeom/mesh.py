@@ -30,7 +30,7 @@ __all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_i
            "unique_edges", "euler_characteristic", "close_loops", "compact", "mean_edge",
            "edge_sides", "unpaired", "boundary_loops", "main_part", "main_faces", "face_keys",
            "smaller_fans", "one_fan", "successor_walks", "peel_rim", "RIM_ANGLE_DEG", "RIM_ANGLE",
-           "cross3", "corner_fans", "drop_smaller_fans"]
+           "cross3", "corner_fans", "drop_smaller_fans", "shape_quality"]
 
 RIM_ANGLE_DEG = 120.0
 """A rim triangle whose angle opposite its boundary edge is wider than this (degrees) is a
@@ -62,6 +62,14 @@ def cross3(a, b) -> np.ndarray:
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def shape_quality(P: np.ndarray, F: np.ndarray, cross: np.ndarray) -> np.ndarray:
+    """(M,) shape quality of the triangles ``F`` of ``P`` (N, 3), whose edge cross products
+    ``(p_1 - p_0) x (p_2 - p_0)`` are ``cross`` (M, 3): ``2 sqrt(3) |cross| / sum of the
+    squared edge lengths``, 1 for an equilateral triangle, 0 for a degenerate one."""
+    sq = sum(((P[F[:, (q + 1) % 3]] - P[F[:, q]]) ** 2).sum(axis=1) for q in range(3))
+    return 2.0 * np.sqrt(3.0) * np.linalg.norm(cross, axis=1) / np.maximum(sq, 1e-300)
 
 
 def shoelace(P: np.ndarray) -> float:

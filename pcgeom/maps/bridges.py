@@ -71,6 +71,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..mesh import shape_quality
+
 if TYPE_CHECKING:
     from .topology import Topology
 
@@ -132,10 +134,8 @@ def disagreeing(X: np.ndarray, normals: np.ndarray, faces: np.ndarray,
     if len(F) == 0:
         return np.zeros(0, dtype=bool)
     cross = np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
-    area2 = np.linalg.norm(cross, axis=1)
-    sq = sum(((X[F[:, (q + 1) % 3]] - X[F[:, q]]) ** 2).sum(axis=1) for q in range(3))
-    shape = 2.0 * np.sqrt(3.0) * area2 / np.maximum(sq, 1e-300)
-    unit = cross / np.maximum(area2, 1e-300)[:, None]
+    shape = shape_quality(X, F, cross)
+    unit = cross / np.maximum(np.linalg.norm(cross, axis=1), 1e-300)[:, None]
     turn = np.einsum("md,mkd->mk", unit, np.asarray(normals, dtype=np.float64)[F]).min(axis=1)
     return (turn < cos) & (shape > quality)
 

@@ -34,7 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..mesh import RIM_ANGLE, edge_sides, face_keys, main_part, opposite_corners, signed_areas
+from ..mesh import (RIM_ANGLE, edge_sides, face_keys, main_part, opposite_corners,
+                    shape_quality, signed_areas)
 from ..neighbours import (Neighbours, adaptive_pca, find_outliers, local_pca, scale_ladder,
                           surface_variation)
 from ..progress import Progress
@@ -279,9 +280,7 @@ def _merge(X: np.ndarray, normals: np.ndarray, candidates: np.ndarray,
     cross = np.cross(X[tris[:, 1]] - X[tris[:, 0]], X[tris[:, 2]] - X[tris[:, 0]])
     flip = np.einsum("md,md->m", cross, normals[tris].sum(axis=1)) < 0
     tris[flip] = tris[flip][:, [0, 2, 1]]
-    # Shape quality: 1 for an equilateral triangle, 0 for a degenerate one.
-    sq = sum(((X[tris[:, (q + 1) % 3]] - X[tris[:, q]]) ** 2).sum(axis=1) for q in range(3))
-    quality = 2.0 * np.sqrt(3.0) * np.linalg.norm(cross, axis=1) / np.maximum(sq, 1e-300)
+    quality = shape_quality(X, tris, cross)
     # Slivers (collinear points, as on a regular grid) make the cotangent weights blow up.
     order = np.lexsort((-quality, -votes))
     order = order[quality[order] > _MIN_QUALITY]
