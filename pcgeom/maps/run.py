@@ -265,7 +265,7 @@ def parametrize(
         else None
     lm_points, lm_targets = _landmark_tensors(landmarks, center, scale, dev, dtype)
     log(f"{len(P)} points onto {domain.label}: the {kind} map", enabled=progress)
-    Xn, denoised, outlier = _denoise(Xn, normals, config, lm_points)
+    raw, (Xn, denoised, outlier) = Xn, _denoise(Xn, normals, config, lm_points)
     # The record in input units; it is the run's first stage when it moved the points.
     denoised.update({k: denoised[k] * scale for k in ("noise_std", "spacing")
                      if denoised[k] is not None})
@@ -318,7 +318,8 @@ def parametrize(
                       faces=atlas["faces"], atlas=atlas)
     if kind == "sphere":
         uv, lam_inv, record, faces = sphere_map(Xn, normals, config, progress=progress,
-                                                outlier=outlier)
+                                                outlier=outlier,
+                                                raw=raw if denoised["applied"] else None)
         report(record, uv)
         return result(uv, lam_inv, [record], faces=faces)
     if kind == "disk":

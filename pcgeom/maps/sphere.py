@@ -491,12 +491,14 @@ def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
 
 
 def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: bool,
-               outlier: np.ndarray | None = None
+               outlier: np.ndarray | None = None, raw: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
     """The sphere map of a run: the cloud's local mesh (:func:`pcgeom.maps.localmesh.
     mesh_cloud`), closed (:func:`closed_mesh`), mapped by :func:`best_sphere_map`;
-    points off the mesh take the normalised inverse-distance mean of their nearest meshed
-    points' unit vectors.
+    when the points were denoised (``raw``: the input points, rows of ``Xn``), each is then
+    placed at the image of its input point's place along the surface
+    (:func:`pcgeom.maps.sphere_place.place_input`); points off the mesh take the normalised
+    inverse-distance mean of their nearest meshed points' unit vectors.
 
     Returns
     -------
@@ -509,7 +511,8 @@ def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: 
         ``sphere_mesh`` (:func:`mesh_topology` of the closed mesh mapped), ``filled``
         (triangles added to close gaps, less those of the smaller fans dropped),
         ``method`` and ``own_rad`` (:func:`best_sphere_map`'s choice, and each method's mean
-        angle error on the closed mesh), the linear map's ``mu_scale`` and
+        angle error on the closed mesh), ``placed`` (:func:`pcgeom.maps.sphere_place.
+        place_input`'s record; ``applied`` False without ``raw``), the linear map's ``mu_scale`` and
         ``mobius_rounds``, ``flips`` (``count``, ``faces``: chord
         triangles of the closed mesh turned over), ``onto`` ("sphere"), ``solver`` and
         ``seconds``.
@@ -532,6 +535,12 @@ def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: 
     V = Xn[index]
     F = outward(V, F)  # the normals may have been oriented inward
     S_main, stats = best_sphere_map(V, F)
+    placed = {"applied": False}
+    if raw is not None:
+        from .sphere_place import place_input
+
+        S_main, placed = place_input(S_main, V, raw[index], F)
+        stats["flips"] = int(sphere_flips(S_main, F).sum())
     S = np.full((len(Xn), 3), np.nan)
     S[index] = S_main
     known = np.zeros(len(Xn), dtype=bool)
@@ -541,7 +550,7 @@ def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: 
     record.update(kind="localmesh", onto="sphere", sphere_mesh=topology,
                   filled=int(len(F) - mesh.main[mesh.faces].all(axis=1).sum()),
                   mu_scale=stats["mu_scale"], mobius_rounds=stats["mobius_rounds"],
-                  method=stats["method"],
+                  method=stats["method"], placed=placed,
                   own_rad={k: stats[f"{k}_rad"] for k in ("linear", "cmcf")},
                   flips={"count": stats["flips"], "faces": int(len(F)), "rim": 0, "hole": 0,
                          "inside": stats["flips"]},
