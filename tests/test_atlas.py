@@ -354,7 +354,8 @@ def test_cut_map_refused_by_boundary(tmp_path, capsys, torus_file, torus_map):
 
 def test_reconstruct_cut_map(tmp_path, capsys, torus_file, torus_map):
     """reconstruct on a cut map writes its own mesh with the atlas per corner (one vertex per
-    meshed point, more uv than vertices, every uv in [0, 1], the checkerboard beside it); a
+    meshed point, more uv than vertices, every uv in [0, 1], the checkerboard beside; trimesh
+    and MeshLab read the same counts); a
     PLY path or remeshing options are refused in one line, nothing written."""
     import json
 
@@ -381,3 +382,12 @@ def test_reconstruct_cut_map(tmp_path, capsys, torus_file, torus_map):
     assert len(m.faces) == n_faces and len(m.vertices) == summary["n_uv"]
     assert (m.visual.uv >= 0).all() and (m.visual.uv <= 1).all()
     assert (tmp_path / "m.mtl").exists() and (tmp_path / "m_checker.png").exists()
+    # MeshLab reads the same OBJ: one vertex per point, every corner's uv in [0, 1].
+    pymeshlab = pytest.importorskip("pymeshlab")
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(obj))
+    mm = ms.current_mesh()
+    assert (mm.vertex_number(), mm.face_number()) == (summary["n_vertices"], n_faces)
+    wedge = mm.wedge_tex_coord_matrix()
+    assert wedge.shape == (3 * n_faces, 2) and len(np.unique(wedge, axis=0)) == summary["n_uv"]
+    assert (wedge >= 0).all() and (wedge <= 1).all()

@@ -11,7 +11,10 @@ takes the whole mesh as one piece and, recursively:
    measures its **spread**, the 95th over the 5th percentile of the per-triangle scale factor
    ``sqrt(uv area / 3D area)``.
 3. A chart with no flip, a simple boundary and a spread within the bound (``max_stretch``) is
-   kept. One over the bound gets a **slit** (up to :data:`SLITS` per chart): a seam along the
+   kept. One over the bound is first mapped again with its scale bounded
+   (:func:`pcgeom.maps.chart_scale.bound_scale`, kept by :func:`_bounded` when it is within the
+   bound, with no flip, at little cost in angle: no seam added). One still over the bound gets
+   a **slit** (up to :data:`SLITS` per chart): a seam along the
    shortest path from its boundary to the vertex whose scale factor is farthest from the
    median (in log: the tip of a finger the conformal map shrinks), then is mapped again (the
    cone-and-cut idea of OptCuts and Boundary First Flattening, with the cut ending at the
@@ -283,10 +286,11 @@ def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
     return _parts(piece, cut, E)
 
 
-def _map(V: np.ndarray, piece: Piece, slits: int) -> Chart:
+def _map(V: np.ndarray, piece: Piece, slits: int, bound: float = np.inf) -> Chart:
     from .atlas import boundary_simple, chart_map, overlap_area
 
     U, info = chart_map(V[piece.origin], piece.F)
+    U, info = _bounded(V[piece.origin], piece.F, U, dict(info, bounded=False), bound)
     simple = bool(boundary_simple(U, piece.F))
     # A seam whose two sides the map keeps together (a slit across a smooth part, a path to
     # a small hole) touches itself: its sides may cross by rounding, no more.
@@ -295,6 +299,24 @@ def _map(V: np.ndarray, piece: Piece, slits: int) -> Chart:
                 spread=spread(V[piece.origin], U, piece.F))
     info["ok"] = info["flips"] == 0 and covered < TOUCH
     return Chart(piece.faces, piece.F, piece.origin, U, info)
+
+
+def _bounded(P: np.ndarray, F: np.ndarray, U: np.ndarray, info: dict, bound: float
+             ) -> tuple[np.ndarray, dict]:
+    """``U``, or when its spread passes ``bound`` the scale-bounded map
+    (:func:`pcgeom.maps.chart_scale.bound_scale`) if that one has no flip, a spread within the
+    bound and a conformal distortion at most :data:`pcgeom.maps.chart_scale.ANGLE_COST` times
+    ``U``'s (``info["bounded"]`` says which)."""
+    from .chart_scale import ANGLE_COST, bound_scale, conformal_distortion
+
+    if info["flips"] or not np.isfinite(bound) or spread(P, U, F) <= bound:
+        return U, info
+    W = bound_scale(P, F, U, bound)
+    if (signed_areas(W, F) <= 0).any() or spread(P, W, F) > bound:
+        return U, info
+    if conformal_distortion(P, W, F) > ANGLE_COST * conformal_distortion(P, U, F):
+        return U, info
+    return W, dict(info, bounded=True)
 
 
 def _tutte(V: np.ndarray, chart: Chart) -> Chart:
@@ -371,13 +393,14 @@ def _rim_length(V: np.ndarray, piece: Piece) -> float:
 def _fit(V: np.ndarray, pieces: list[Piece], max_stretch: float, *, roots: int, slits: int,
          depth: int) -> tuple[list[Chart], dict]:
     """:func:`fit_charts` with the pieces opened by the cut graph from ``roots`` roots."""
-    tally = {"loops": 0, "slits": 0, "splits": 0, "tutte": 0, "short": 0}
+    tally = {"loops": 0, "slits": 0, "splits": 0, "tutte": 0, "short": 0, "bounded": 0}
     out: list[Chart] = []
     # (piece, splits above it, slits in it, the chart before its last slit)
     work = [(p, 0, 0, None) for p in pieces]
     while work:
         piece, level, cuts, before = work.pop()
-        chart = _map(V, _disk(V, piece, roots, tally), cuts)
+        chart = _map(V, _disk(V, piece, roots, tally), cuts, max_stretch)
+        tally["bounded"] += chart.info["bounded"]
         ok = chart.info["ok"]
         if before is not None and ok and chart.info["spread"] * SLIT_GAIN \
                 > before.info["spread"]:
