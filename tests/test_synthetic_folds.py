@@ -130,3 +130,54 @@ def test_standing_triangles_are_those_across_a_corner_normal_line():
     corners = np.array([[up, up, -up], [up, up, up], [up, tilt, up], [up, up, up]])
     np.testing.assert_array_equal(standing(cross, corners, 0.3), [False, False, False, True])
     np.testing.assert_array_equal(standing(cross, corners, 0.6), [False, False, True, True])
+
+
+def test_a_mesh_without_standing_triangles_is_not_built_again():
+    """A gently curved sheet's local mesh has no triangle standing across its corners'
+    normals: the upright rebuild is skipped and the map is the one of ``facing = 0``."""
+    import dataclasses
+
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-1.0, 1.0, (800, 2))
+    X = np.column_stack([xy, 0.2 * (xy ** 2).sum(axis=1)])
+    fast = get_preset("fast")
+    off = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh, facing=0.0))
+    got = parametrize(X, config=fast, seed=0, progress=False)
+    before = parametrize(X, config=off, seed=0, progress=False)
+    assert got.history[0]["standing"] == 0 and got.history[0]["upright"] is False
+    np.testing.assert_array_equal(got.uv, before.uv)
+
+
+def test_the_upright_map_is_kept_only_when_it_turns_over_fewer_triangles():
+    """``_upright`` compares the rebuilt mesh's map with the kept one (own flips, then
+    angle): a rebuilt map that folds half the sheet over is not kept; the true LSCM of the
+    rebuilt mesh (walls 2 spacings apart: fewer flips or less distortion) is."""
+    import dataclasses
+
+    from pcgeom.cloud import normalize
+    from pcgeom.maps.free import _upright, free_start, lscm_free
+
+    sheet = deep_folds(1500, gap=2.0, depths=(4.0,), seed=0)
+    Xn = normalize(sheet.points)[0]
+    fast = get_preset("fast")
+    off = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh, facing=0.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        uv, mesh, normals, _ = free_start(Xn, None, off, progress=False)
+    kept = (uv, mesh, normals, {})
+    outlier = np.zeros(len(Xn), dtype=bool)
+
+    def folded(m):
+        u = lscm_free(Xn, m).copy()
+        u[:, 0] = np.abs(u[:, 0] - np.median(u[:, 0]))  # half the sheet mirrored onto the other
+        return u, {}
+
+    record: dict = {}
+    got = _upright(Xn, kept, folded, fast.local_mesh, outlier=outlier, record=record)
+    assert record["standing"] > 0 and record["upright"] is False
+    assert record["upright_flips"][1] > record["upright_flips"][0]
+    assert got[0] is uv and got[1] is mesh
+    record = {}
+    got = _upright(Xn, kept, lambda m: (lscm_free(Xn, m), {}), fast.local_mesh,
+                   outlier=outlier, record=record)
+    assert record["upright"] is True and got[1] is not mesh and record["standing_cut"] > 0

@@ -301,9 +301,11 @@ class LocalMeshConfig:
     none whose normal has ``|cos| <= facing`` with a corner's normal line (about 78 degrees
     apart; :func:`pcgeom.maps.localmesh.standing`). Such triangles cut the corner of a sharp
     lip or bridge a narrow groove's walls, and make handles no flat map can hold. A cloud with
-    normals: its mesh is built so; without: the mesh of the normals the
-    :attr:`normal_rounds` kept is built again so (the rounds read the flips of the whole
-    mesh). 0: off. Measured (bare, ``fast``, seed 0, on the true triangles, 0 -> 0.2):
+    normals: its mesh is built so; without: when the mesh of the normals the
+    :attr:`normal_rounds` kept has such a triangle, it is built again so (the rounds read the
+    flips of the whole mesh) and its map kept if it turns over fewer of its own triangles,
+    then distorts angles less on its own mesh. 0: off. Measured (bare, ``fast``, seed 0, on
+    the true triangles, 0 -> 0.2):
     :func:`pcgeom.synthetic_folds.deep_folds` (6000 points) with walls 1.5 / 2 / 3 spacings
     apart 0.0217 / 0.0113 / 0.0134 -> 0.0178 / 0.0029 / 0.0022 rad (its exact map 0.0061 /
     0.0054 / 0.0045; local-mesh genus 1 / 7 / 3 -> 1 / 0 / 0), uniformly sampled 0.0937 /
@@ -315,7 +317,8 @@ class LocalMeshConfig:
     flip either way). 0.3 maps the uniform grooves 2
     spacings apart better (0.0123 rad, 0.23%) but a noisy range scan of a head
     (tests/test_scans.py) at 0.0821 rad, 40 flipped, against 0.0713 and 3 (0.2: 0.0708, 3).
-    It costs one more mesh and solve (face_human_choi's free map 1.2-1.4x the time)."""
+    It costs one more mesh and solve where the kept mesh has a standing triangle (every
+    shared surface bare: face_human_choi's free map 1.2-1.4x the time)."""
     refine_steps: int = 0
     """Steps of the LEG refinement (:class:`RefineConfig`, same-sheet pairs) after LSCM.
     0: none. Measured on face_human_choi from a 0.040 rad local-mesh map: 300 steps raise it to

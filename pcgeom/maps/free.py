@@ -21,8 +21,9 @@
    mesh** (``LocalMeshConfig.facing``): the triangles that stand across their corners'
    normals (:func:`pcgeom.maps.localmesh.standing`: a sharp lip's corner cut, a bridge
    between a groove's walls) make handles no flat map holds; a cloud with normals has its
-   mesh built without them, a bare one has the mesh of the normals the rounds kept built
-   again without them, and mapped again (:func:`_upright`).
+   mesh built without them; a bare one, when the mesh of the normals the rounds kept has
+   one, has it built again without them and mapped again, and the map that turns over fewer
+   of its own mesh's triangles (then distorts angles less on it) is kept (:func:`_upright`).
 5. **Conformal factor.** ``l_i``, the inverse-lambda of LEG, is set so that LEG's
    ``(l_i + l_j) |u_i - u_j|`` matches ``|x_i - x_j|`` at the point's nearest neighbours.
 
@@ -48,13 +49,14 @@ import torch
 from ..neighbours import find_outliers
 from ..config import ParamConfig
 from ..errors import InputError
-from ..mesh import edge_ids
+from ..mesh import edge_ids, shape_quality
 from ..progress import Progress
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
 from ._sparse import fill_order, ordering_name, solver_name, spd_factor
-from .localmesh import (MIN_MESHED, LocalMesh, _interpolate_rest, _submesh, local_mesh, mesh_cloud,
-                        mesh_flips, mesh_normals, topology_record)
+from .localmesh import (MIN_MESHED, STANDING_QUALITY, LocalMesh, _interpolate_rest, _submesh,
+                        local_mesh, mesh_cloud, mesh_flips, mesh_normals, standing,
+                        topology_record)
 from .refine import refine
 
 __all__ = ["lscm_free", "conformal_factor", "free_map", "free_start"]
@@ -343,19 +345,52 @@ def _upright(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.ndarra
              record: dict) -> tuple:
     """The local mesh of the kept normals built again without the triangles that stand
     across their corners' normals (``settings.facing``, :func:`pcgeom.maps.localmesh.standing`)
-    and mapped: ``(uv, mesh, stats)``; ``kept``'s (``(uv, mesh, normals, stats)``) when that
-    mesh is no open surface. ``record`` receives ``standing_cut`` (triangles the mesh lost)
-    and the new mesh's ``faces``, ``boundary_edges``, ``unmeshed`` and topology."""
+    and mapped, when the kept mesh has such a triangle: ``(uv, mesh, stats)`` of the better
+    map (:func:`_map_score`: fewer flips of its own mesh, then the smaller angle distortion
+    on it; the kept one on ties); ``kept``'s (``(uv, mesh, normals, stats)``) when the kept
+    mesh has no standing triangle or the new mesh is no open surface. ``record`` receives
+    ``standing`` (the kept mesh's standing triangles), ``upright`` (whether the new map was
+    kept), ``upright_flips`` (the two maps' own flips, kept first) and, when kept,
+    ``standing_cut`` (triangles the mesh lost) and the new mesh's ``faces``,
+    ``boundary_edges``, ``unmeshed`` and topology."""
     uv, mesh, normals, stats = kept
+    record.update(standing=_standing_count(Xn, mesh, normals, settings.facing), upright=False)
+    if record["standing"] == 0:  # the build without them would make this very mesh
+        return uv, mesh, stats
     upright = local_mesh(Xn, normals, settings.neighbours, exclude=outlier,
                          facing=settings.facing)
     if upright.main.mean() < MIN_MESHED or upright.looks_closed:
         return uv, mesh, stats
-    uv, stats = solve(upright)
-    record.update(standing_cut=mesh.n_faces - upright.n_faces, faces=upright.n_faces,
-                  boundary_edges=upright.boundary_edges, unmeshed=int((~upright.main).sum()),
-                  **topology_record(upright.topology))
-    return uv, upright, stats
+    uv_up, stats_up = solve(upright)
+    before, after = _map_score(Xn, mesh, uv), _map_score(Xn, upright, uv_up)
+    record["upright_flips"] = [before[0], after[0]]
+    if after >= before:
+        return uv, mesh, stats
+    record.update(upright=True, standing_cut=mesh.n_faces - upright.n_faces,
+                  faces=upright.n_faces, boundary_edges=upright.boundary_edges,
+                  unmeshed=int((~upright.main).sum()), **topology_record(upright.topology))
+    return uv_up, upright, stats_up
+
+
+def _standing_count(Xn: np.ndarray, mesh: LocalMesh, normals: np.ndarray, facing: float
+                    ) -> int:
+    """How many of the mesh's triangles of shape quality over
+    :data:`pcgeom.maps.localmesh.STANDING_QUALITY` stand across their corners' normals
+    (:func:`pcgeom.maps.localmesh.standing`): those a build with ``facing`` leaves out."""
+    F = mesh.faces
+    cross = np.cross(Xn[F[:, 1]] - Xn[F[:, 0]], Xn[F[:, 2]] - Xn[F[:, 0]])
+    shaped = shape_quality(Xn, F, cross) > STANDING_QUALITY
+    return int((standing(cross[shaped], normals[F[shaped]], facing)).sum())
+
+
+def _map_score(Xn: np.ndarray, mesh: LocalMesh, uv: np.ndarray) -> tuple[int, float]:
+    """``(flips, angle)``: the triangles of its own mesh the map turns over
+    (:func:`pcgeom.maps.localmesh.mesh_flips`) and its mean absolute angle distortion on
+    that mesh's main part (:func:`pcgeom.metrics.angle_distortion`)."""
+    from ..metrics import angle_distortion
+
+    F = mesh.faces[mesh.main[mesh.faces].all(axis=1)]
+    return mesh_flips(Xn, mesh, uv)["count"], float(angle_distortion(Xn, F, uv).mean_abs)
 
 
 NORMAL_ROUND_PATIENCE = 1
