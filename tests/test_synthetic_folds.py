@@ -181,3 +181,18 @@ def test_the_upright_map_is_kept_only_when_it_turns_over_fewer_triangles():
     got = _upright(Xn, kept, lambda m: (lscm_free(Xn, m), {}), fast.local_mesh,
                    outlier=outlier, record=record)
     assert record["upright"] is True and got[1] is not mesh and record["standing_cut"] > 0
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_uneven_walls_are_no_strays_but_points_off_the_sheet_are(seed):
+    """The off-surface test fits each point's own sheet (``neighbours.own_sheet``): the
+    walls of a groove 2 spacings apart, sampled uniformly at random, lose no point (fitted
+    to both walls: 4 and 3 flagged), and points 3 spacings over the flat are all found."""
+    from pcgeom.neighbours import find_outliers
+
+    sheet = deep_folds(2000, gap=2.0, depths=(8.0,), sampling="uniform", seed=seed)
+    flat = np.flatnonzero(sheet.groove < 0)[:10]
+    X = np.vstack([sheet.points, sheet.points[flat] + [0.0, 0.0, 3.0 * sheet.spacing]])
+    flagged = find_outliers(X)
+    assert flagged[len(sheet.points):].all()
+    assert not flagged[:len(sheet.points)].any()
