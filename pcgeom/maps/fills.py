@@ -177,22 +177,35 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
 
     n = len(X)
     closed = 0
+    # Loops a round tried and could not close, by their points: where they reach (a ball
+    # round the loop's centre holding every point the re-mesh looked at) and the loops not
+    # small that stopped them. The next round skips such a loop when nothing it looked at
+    # changed: no point in its ball re-meshed, and the loops that stopped it the same.
+    failed: dict = {}
+    touched = None
     for _ in range(REFILL_ROUNDS):
         if not len(faces):
             break
         rim, walks = rim_walks(faces)
         perimeter = np.linalg.norm(X[rim[:, 1]] - X[rim[:, 0]], axis=1)
+        walk_keys = [frozenset(rim[w, 0].tolist()) for w in walks]
+        walk_id = np.full(len(rim), -1, dtype=np.int64)
+        for i, w in enumerate(walks):
+            walk_id[w] = i
         small = []
-        for w in walks:
+        present = set(walk_keys)
+        for i, w in enumerate(walks):
             length = float(perimeter[w].sum())
             short = max(REFILL_LOOP * bound, REFILL_SHORT)
             if length <= 2.0 * np.pi * short * float(np.median(h[rim[w, 0]])):
-                small.append((length, w))
+                if not _unchanged(failed.get(walk_keys[i]), touched, present):
+                    small.append((length, w, walk_keys[i]))
         if not small:
             break
         small.sort(key=lambda s: s[0])
+        looked: dict = {}  # small loop -> (triangles looked at, loops not small it met)
         walk_of = np.full(len(rim), -1, dtype=np.int64)
-        for k, (_, w) in enumerate(small):
+        for k, (_, w, _) in enumerate(small):
             walk_of[w] = k
         m = len(faces)
         H = _directed(faces)  # (3M, 2)
@@ -234,7 +247,9 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             for _ in range(rings - 1):
                 T = tris_at(np.unique(faces[T]))
             for _ in range(REFILL_GROW):
+                looked[k] = (T, looked.get(k, (None, frozenset()))[1])
                 if busy[T].any():
+                    looked[k] = (None, frozenset())  # waits for the next round
                     return False
                 D = _directed(faces[T])
                 twin = D[:, 1] * n + D[:, 0]
@@ -245,6 +260,9 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                 at = np.minimum(np.searchsorted(rim_key[rim_order], keys), len(rim) - 1)
                 owners = walk_of[rim_order[at]]
                 if (owners < 0).any():
+                    stop = walk_id[rim_order[at][owners < 0]]
+                    looked[k] = (T if (stop >= 0).all() else None,
+                                 frozenset(walk_keys[i] for i in stop.tolist() if i >= 0))
                     return False  # a rim or a hole of the surface, or a wide loop
                 extra = set(owners.tolist()) - members
                 if extra:  # small loops next to it join it, with their ring
@@ -263,6 +281,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                 T = np.union1d(T, tris_at(at_pinch))
             else:
                 return None
+            looked[k] = (T, looked[k][1])
             region = np.unique(faces[T])
             inside = np.setdiff1d(region, loop)
             if exclude is not None:
@@ -273,7 +292,8 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                 reach = float(np.linalg.norm(X[loop] - centre, axis=1).max())
                 near = free[np.asarray(tree.query_ball_point(centre, reach), dtype=np.int64)]
                 inner = np.concatenate([inside, near])
-            F = fill_loop(X, normals, loop, inner)
+            # (A fill of the loop alone leaves the points inside out: no re-mesh.)
+            F = fill_loop(X, normals, loop, inner, loop_alone=not len(inside))
             if F is None:
                 return None
             if not np.isin(inside, F).all():
@@ -336,10 +356,31 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             fills.append(F)
             added_edges.update(ek.tolist())
             closed += 1
+        for k in set(range(len(small))) - done:
+            T, stop = looked.get(k, (None, frozenset()))
+            if T is None:
+                continue
+            P = X[np.unique(faces[T])]
+            centre = X[rim[small[k][1], 0]].mean(axis=0)
+            radius = 2.0 * float(np.linalg.norm(P - centre, axis=1).max())  # (free points)
+            failed[small[k][2]] = (centre, radius, stop)
         if not fills:
             break
+        changed = np.unique(np.concatenate([faces[busy].ravel(), *[F.ravel() for F in fills]]))
+        touched = cKDTree(X[changed])
         faces = np.concatenate([faces[~busy], *fills])
     return faces, closed
+
+
+def _unchanged(seen: tuple | None, touched, present: set) -> bool:
+    """Whether a loop an earlier round could not close (``seen``: the centre and radius of
+    the ball of points it looked at, and the loops not small that stopped it) meets the same
+    mesh now: no point in that ball re-meshed since (``touched``, a cKDTree of those points)
+    and each loop that stopped it still there (``present``: the loops' point sets)."""
+    if seen is None or touched is None:
+        return False
+    centre, radius, stop = seen
+    return not touched.query_ball_point(centre, radius * (1.0 + 1e-9)) and stop <= present
 
 
 def _ear_fill(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, rim: np.ndarray, *,

@@ -351,12 +351,15 @@ def _plane(X: np.ndarray, normals: np.ndarray, loop: np.ndarray) -> np.ndarray:
 
 
 def fill_loop(X: np.ndarray, normals: np.ndarray, loop: np.ndarray, inner: np.ndarray,
-              edges: np.ndarray | None = None, folds: bool = False) -> np.ndarray | None:
+              edges: np.ndarray | None = None, folds: bool = False, *,
+              loop_alone: bool = True) -> np.ndarray | None:
     """Triangles (k, 3) that fill the simple boundary loop ``loop`` (in the faces' boundary
     direction), over it and the candidate points ``inner`` that lie inside it, oriented as
     the mesh; None when the loop has no simple shape in its plane, or its fill's rim is not
     the loop, or a fill triangle faces away from its corners' normals. ``edges``: the mesh's
     edges (``a * N + b``, ``a < b``), which no fill triangle may hold but the loop's own.
+    ``loop_alone``: False where a fill of the loop's points alone is of no use (a re-mesh
+    that must use the points inside): None instead of one.
 
     The loop and the points are projected on the plane of the loop's normals
     (:func:`_plane`); the Delaunay triangles inside the loop are the fill. Where the loop's
@@ -374,7 +377,7 @@ def fill_loop(X: np.ndarray, normals: np.ndarray, loop: np.ndarray, inner: np.nd
     Q = (X[loop] - centre) @ frame[:2].T
     polygon = shapely.Polygon(Q)
     if not polygon.is_valid or polygon.area <= 0:
-        return _least_area_fill(X, normals, loop, edges, folds)
+        return _least_area_fill(X, normals, loop, edges, folds) if loop_alone else None
     region = polygon.buffer(1e-9 * np.sqrt(polygon.area))
     shapely.prepare(region)
     if len(inner):
@@ -400,6 +403,8 @@ def fill_loop(X: np.ndarray, normals: np.ndarray, loop: np.ndarray, inner: np.nd
         if not _rim_is(T, len(loop)):
             T = None
     if T is None:  # the loop alone, its edges kept
+        if not loop_alone:
+            return None
         pts, P = loop, Q
         tri = shapely.constrained_delaunay_triangles(polygon)
         corners = np.array([np.asarray(t.exterior.coords)[:3] for t in tri.geoms])
@@ -424,7 +429,7 @@ def fill_loop(X: np.ndarray, normals: np.ndarray, loop: np.ndarray, inner: np.nd
     face = cross3(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
     if (np.einsum("md,md->m", face, normals[F].sum(axis=1)) <= 0).any() or (
             edges is not None and _holds(F, edges, len(X))):
-        return _least_area_fill(X, normals, loop, edges, folds)
+        return _least_area_fill(X, normals, loop, edges, folds) if loop_alone else None
     return F
 
 
