@@ -6,7 +6,10 @@ apart, about 0.74 true spacings at 11k points).
 1. Where its local mesh goes wrong (11k points), with its true normals and bare, as runs
    build it: the mesh's edges that bridge (ends more than 3 true edges apart) by the
    regions they join (flat, the two walls of a fold, the bulb at its
-   bottom: fillets count as bulb), and the true edges the mesh has, by region.
+   bottom: fillets count as bulb), and the true edges the mesh has, by region; where the
+   free map's flips are (in the mesh or not, beside its false holes, unmeshed, where a fold
+   tapers); which of the mesh's steps lose the true triangles; how many bare points the
+   orientation turns the wrong way, from PCA lines and from the true lines.
 2. An oracle: every such bridge cut before the topology repair (the truth known), maps side
    by side with the rule's.
 3. The rule of pcgeom.maps.bridges off and on in every build, side by side: the lips sheet
@@ -117,6 +120,131 @@ def diagnosis_rows() -> list[dict]:
             row[f"bridges {tag}"] = pairs.get(name, 0)
             row[f"kept {tag}"] = f"{int(have[names == name].sum())} / {int((names == name).sum())}"
     return sorted(rows.values(), key=lambda r: r["pair"])
+
+
+def _flipped(U, F) -> np.ndarray:
+    from pcgeom.metrics import flipped_mask
+    from pcgeom.mesh import signed_areas
+
+    flipped = flipped_mask(signed_areas(U, F))
+    return ~flipped if flipped.mean() > 0.5 else flipped  # the map's orientation is free
+
+
+def flip_rows() -> list[dict]:
+    """Where the free map turns the lips sheet's true triangles over (11k, seeds 0-2, with
+    its normals and bare, the local mesh and the map as runs make them): in the local mesh
+    or not, beside a false hole of it (a boundary loop other than the rim, by its length),
+    with a corner outside its main part, where a fold tapers."""
+    from pcgeom.apps.baselines import lscm
+    from pcgeom.cloud import normalize
+    from pcgeom.config import get_preset
+    from pcgeom.maps.free import free_start
+    from pcgeom.maps.topology import simple_loops
+    from pcgeom.mesh import face_keys
+    from pcgeom.synthetic_sheets import lips_sheet
+
+    rows = []
+    for seed in (0, 1, 2):
+        s = lips_sheet(11000, gap=0.75, seed=seed)
+        n, taper = len(s.points), _tapering(s)
+        ref = _flipped(lscm(s.points, s.faces), s.faces)
+        Xn, _, _ = normalize(s.points)
+        for tag, N in (("given", s.normals), ("bare", None)):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                uv, mesh, _, _ = free_start(Xn, N, get_preset("fast"), progress=False)
+            F = mesh.faces[mesh.main[mesh.faces].all(axis=1)]
+            flipped = _flipped(uv, s.faces)
+            loops = sorted(simple_loops(F), key=len)[:-1]  # the longest: the rim
+            size = np.zeros(n, dtype=np.int64)  # the longest false loop at each point
+            for loop in loops:
+                size[loop] = np.maximum(size[loop], len(loop))
+            at = size[s.faces[flipped]].max(axis=1)
+            rows.append({
+                "seed": seed, "normals": tag, "flipped": int(flipped.sum()),
+                "lscm": int(ref.sum()), "both": int((flipped & ref).sum()),
+                "in_mesh": int((flipped & np.isin(face_keys(s.faces, n),
+                                                  face_keys(F, n))).sum()),
+                "unmeshed": int((flipped & (~mesh.main[s.faces]).any(axis=1)).sum()),
+                "small": int(((at >= 1) & (at <= 4)).sum()),
+                "mid": int(((at >= 5) & (at <= 16)).sum()), "large": int((at >= 17).sum()),
+                "loops": f"{sum(len(x) <= 4 for x in loops)} / "
+                         f"{sum(4 < len(x) <= 16 for x in loops)} / "
+                         f"{sum(len(x) > 16 for x in loops)}",
+                "taper": int((flipped & taper).sum()), "faces": len(s.faces)})
+            harness.log(f"flips seed {seed} {tag}: {rows[-1]}")
+    return rows
+
+
+def stage_rows() -> list[dict]:
+    """The lips sheet's true triangles (11k, seeds 0-2, its normals) that the local mesh's
+    steps lose (:mod:`pcgeom.maps.localmesh` as runs build it with normals): the fans, their
+    merge (standing triangles left out), the triangles that turn from their normals dropped,
+    the repair with bridges cut; and how many of the true triangles have two corners with
+    opposite normals (no fan can make them) or turn from a corner's normal by more than 60
+    degrees (:func:`pcgeom.maps.bridges.disagreeing`)."""
+    from pcgeom.cloud import normalize
+    from pcgeom.config import get_preset
+    from pcgeom.maps import localmesh as lm
+    from pcgeom.maps.bridges import bridge_candidates, cut_bridges, disagreeing
+    from pcgeom.maps.topology import SPACING_NEIGHBOURS, repair
+    from pcgeom.mesh import face_keys
+    from pcgeom.neighbours import Neighbours
+    from pcgeom.synthetic_sheets import lips_sheet
+
+    c = get_preset("fast").local_mesh
+    rows = []
+    for seed in (0, 1, 2):
+        s = lips_sheet(11000, gap=0.75, seed=seed)
+        X, _, _ = normalize(s.points)
+        n, N, taper = len(X), s.normals, _tapering(s)
+        truth = face_keys(s.faces, n)
+        knn = Neighbours.of(X, max(c.neighbours, SPACING_NEIGHBOURS))
+        fans = lm._fans(X, N, c.neighbours, False, knn=knn)
+        merged = lm._merge(X, N, fans, c.facing)[0]
+        kept = lm._drop_disagreeing(X, N, merged)
+        spacing = knn.first(SPACING_NEIGHBOURS)[0][:, 1:].mean(axis=1)
+        final = cut_bridges(X, N, kept, repair, spacing=spacing)[0]
+        row = {"seed": seed, "faces": len(s.faces), "taper_all": int(taper.sum()),
+               "opposite": int(bridge_candidates(N, s.faces).sum()),
+               "opposite_taper": int((bridge_candidates(N, s.faces) & taper).sum()),
+               "turn": int(disagreeing(X, N, s.faces).sum())}
+        for name, F in (("fans", fans), ("merged", merged), ("dropped", kept),
+                        ("final", final)):
+            lost = ~np.isin(truth, face_keys(F, n))
+            row[name] = f"{int(lost.sum())} ({int((lost & taper).sum())})"
+        rows.append(row)
+    return rows
+
+
+def orientation_rows() -> list[dict]:
+    """Points of the bare lips sheet (11k, seeds 0-2) whose oriented normal points the wrong
+    way (:func:`pcgeom.maps.normals.orient_normals`, before the normal rounds): from its
+    PCA normals (:func:`pcgeom.neighbours.adaptive_pca`, as runs estimate them) and from its
+    true normal lines with random signs; PCA lines more than 30 degrees off."""
+    from pcgeom.cloud import normalize
+    from pcgeom.config import get_preset
+    from pcgeom.maps.normals import orient_normals
+    from pcgeom.neighbours import Neighbours, adaptive_pca
+    from pcgeom.synthetic_sheets import lips_fold_scale, lips_sheet
+
+    c = get_preset("fast").local_mesh
+    rows = []
+    for seed in (0, 1, 2):
+        s = lips_sheet(11000, gap=0.75, seed=seed)
+        X, _, _ = normalize(s.points)
+        T, taper = s.normals, lips_fold_scale(s.params) < 0.5
+        knn = Neighbours.of(X, max(max(c.normal_scales), c.normal_neighbours))
+        pca = adaptive_pca(X, c.normal_scales, c.normal_tolerance, knn=knn)[1]
+        lines = T * np.random.default_rng(seed).choice([-1.0, 1.0], len(T))[:, None]
+        row = {"seed": seed, "points": len(X),
+               "off30": int((np.abs((pca * T).sum(axis=1)) < np.cos(np.radians(30))).sum())}
+        for name, L in (("pca", pca), ("true", lines)):
+            wrong = (orient_normals(X, L, c.normal_neighbours, knn=knn) * T).sum(axis=1) < 0
+            wrong = wrong if wrong.mean() < 0.5 else ~wrong
+            row[name] = f"{int(wrong.sum())} ({int((wrong & taper).sum())})"
+        rows.append(row)
+    return rows
 
 
 def _map(X, F, domain="free", normals=None, taper=None) -> dict:
@@ -245,6 +373,7 @@ def main(argv=None) -> None:
     args = p.parse_args(argv)
     t0 = time.perf_counter()
     diagnosis = diagnosis_rows()
+    flips, stages, orientation = flip_rows(), stage_rows(), orientation_rows()
     oracle = oracle_rows()
     rules = rule_rows()
     def maps(tags):
@@ -279,6 +408,41 @@ def main(argv=None) -> None:
         ("bridges, bare", "{bridges bare}"), ("true edges kept, bare", "{kept bare}")],
         [{"bridges with normals": 0, "bridges bare": 0, "kept with normals": "-",
           "kept bare": "-", **r} for r in diagnosis])
+    lines += ["", "### Where the flips are (11k, seeds 0-2, as runs map it onto free)", "",
+              "The true triangles the free map turns over: in the local mesh, with a corner "
+              "outside its main part (unmeshed, placed by interpolation), beside a false hole "
+              "of the mesh (a boundary loop other than the rim: the longest such loop at a "
+              "corner, of 3-4 / 5-16 / 17 or more points; the mesh's false loops so counted), "
+              "where a fold tapers (a corner on or beside a fold under half its size); LSCM "
+              "on the true mesh beside it.", ""]
+    lines += harness.table([
+        ("seed", "{seed}"), ("normals", "{normals}"),
+        ("flipped", lambda r: f"{r['flipped']} ({100 * r['flipped'] / r['faces']:.2f}%)"),
+        ("in the local mesh", "{in_mesh}"), ("unmeshed corner", "{unmeshed}"),
+        ("beside a false hole 3-4 / 5-16 / 17+", "{small} / {mid} / {large}"),
+        ("false loops 3-4 / 5-16 / 17+", "{loops}"), ("where a fold tapers", "{taper}"),
+        ("LSCM flipped (both)", "{lscm} ({both})")], flips)
+    lines += ["", "The true triangles (its normals) that the local mesh's steps lose, in all "
+              "(where a fold tapers): after the fans, their merge (standing triangles left "
+              "out), the drop of those that turn from their normals, the repair with bridges "
+              "cut. The true mesh itself has triangles with two corners' normals opposite "
+              "(no fan makes them: each keeps the neighbours with `n_i . n_j > 0`), nearly "
+              "all where a fold tapers, and triangles that turn from a corner's normal by "
+              "more than 60 degrees.", ""]
+    lines += harness.table([
+        ("seed", "{seed}"), ("true triangles", "{faces}"),
+        ("where a fold tapers", "{taper_all}"),
+        ("opposite corner normals (tapering)", "{opposite} ({opposite_taper})"),
+        ("turn over 60 degrees", "{turn}"), ("lost: fans", "{fans}"),
+        ("merge", "{merged}"), ("drop", "{dropped}"), ("repair, cut", "{final}")], stages)
+    lines += ["", "Bare: points whose oriented normal points the wrong way after the "
+              "orientation's spanning tree (pcgeom.maps.normals.orient_normals; before the "
+              "normal rounds), in all (where a fold tapers, under half its size), from the "
+              "PCA normals as runs estimate them and from the true normal lines with random "
+              "signs: the orientation crosses the gap even from exact lines.", ""]
+    lines += harness.table([
+        ("seed", "{seed}"), ("points", "{points}"), ("PCA lines over 30 degrees off", "{off30}"),
+        ("wrong, PCA lines", "{pca}"), ("wrong, true lines", "{true}")], orientation)
     lines += ["", "### Oracle: every true bridge cut before the repair", ""]
     lines += harness.table(maps("runs / oracle"), oracle)
     lines += ["", "With its normals, the oracle keeps the rounded folds on the flat (unmeshed "
@@ -305,8 +469,9 @@ def main(argv=None) -> None:
     lines += ["", f"({time.perf_counter() - t0:.0f} s in all.)"]
     harness.write_section(args.out, "bench_bridges", "\n".join(lines))
     if args.json:
-        harness.write_json(args.json, {"diagnosis": diagnosis, "oracle": oracle,
-                                       "rules": rules})
+        harness.write_json(args.json, {"diagnosis": diagnosis, "flips": flips,
+                                       "stages": stages, "orientation": orientation,
+                                       "oracle": oracle, "rules": rules})
 
 
 if __name__ == "__main__":
