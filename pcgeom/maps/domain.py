@@ -506,8 +506,8 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
         # barrier map would mend them at a cost in angles everywhere: face_3holes_small_choi
         # 1.10x -> 1.15x the landmark-free angle error, its one flipped true triangle kept;
         # untangling alone, 2.2x).
-        return U0, {**info, "bend": "linear" if info.get("linear_bend", {}).get("used")
-                    else "none"}
+        info["bend"] = "linear" if info.get("linear_bend", {}).get("used") else "none"
+        return _polished(X, mesh, U0, domain, landmarks, info)
     info["bend"] = "barrier"
     main, V, F, loops = _main_loops(X, mesh, U0)
     D = U0[main]
@@ -517,7 +517,19 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
     ring = np.asarray(domain.boundary_loops()[0], dtype=np.float64)
     U, more = _injective(X, mesh, (main, V, F, D), [(outer, ring)], domain=domain,
                          landmarks=landmarks, config=config)
-    return U, {**info, **more}
+    return _polished(X, mesh, U, domain, landmarks, {**info, **more})
+
+
+def _polished(X: np.ndarray, mesh: LocalMesh, U: np.ndarray, domain: Domain, landmarks,
+              info: dict) -> tuple[np.ndarray, dict]:
+    """Onto a disk, ``U`` polished (:func:`pcgeom.maps.polish.polish_onto`), the record in
+    ``info["polish"]``; onto other domains ``U`` as it is."""
+    if not isinstance(domain, Disk):
+        return U, info
+    from .polish import polish_onto
+
+    U, info["polish"] = polish_onto(X, mesh, U, domain, landmarks)
+    return U, info
 
 
 def _linear_bend(X: np.ndarray, mesh: LocalMesh, Z: np.ndarray, marks: list,
