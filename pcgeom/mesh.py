@@ -30,7 +30,7 @@ __all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_i
            "unique_edges", "euler_characteristic", "close_loops", "compact", "mean_edge",
            "edge_sides", "unpaired", "boundary_loops", "main_part", "main_faces", "face_keys",
            "smaller_fans", "one_fan", "successor_walks", "peel_rim", "RIM_ANGLE_DEG", "RIM_ANGLE",
-           "cross3", "corner_fans", "drop_smaller_fans", "shape_quality"]
+           "cross3", "twins", "corner_fans", "drop_smaller_fans", "shape_quality"]
 
 RIM_ANGLE_DEG = 120.0
 """A rim triangle whose angle opposite its boundary edge is wider than this (degrees) is a
@@ -373,21 +373,31 @@ def peel_rim(P: np.ndarray, F: np.ndarray, angle: float = RIM_ANGLE, *, rounds: 
     return F[kept], int(m - kept.sum())
 
 
-def corner_fans(F: np.ndarray) -> np.ndarray:
-    """(3M,) the fan of each corner (node ``slot * M + tri``, at ``F[tri, slot]``): the
-    components of the triangles' corners, a corner joined to the corner at the same vertex
-    across each shared edge."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
-
-    m = len(F)
+def twins(F: np.ndarray) -> tuple[np.ndarray, bool]:
+    """(3M,) the twin of each half-edge of ``F`` (:func:`half_edges`' rows; -1 where none:
+    a boundary half-edge), and whether no directed edge comes twice (the mesh consistently
+    oriented and edge-manifold)."""
     n = int(F.max()) + 1
     H = half_edges(F)
     key = H[:, 0] * n + H[:, 1]
     order = np.argsort(key)
+    ordered = key[order]
     twin_key = H[:, 1] * n + H[:, 0]
-    at = np.minimum(np.searchsorted(key[order], twin_key), len(key) - 1)
-    twin = np.where(key[order][at] == twin_key, order[at], -1)
+    at = np.minimum(np.searchsorted(ordered, twin_key), len(key) - 1)
+    return (np.where(ordered[at] == twin_key, order[at], -1),
+            not bool((ordered[1:] == ordered[:-1]).any()))
+
+
+def corner_fans(F: np.ndarray, twin: np.ndarray | None = None) -> np.ndarray:
+    """(3M,) the fan of each corner (node ``slot * M + tri``, at ``F[tri, slot]``): the
+    components of the triangles' corners, a corner joined to the corner at the same vertex
+    across each shared edge. ``twin``: :func:`twins`' first, when already found."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(F)
+    if twin is None:
+        twin = twins(F)[0]
     inner = np.flatnonzero(twin >= 0)
     # Corner of half-edge k's start: (slot k // m, triangle k % m) -> node slot * m + tri.
     # Half-edge a -> b in slot q starts at corner q and ends at corner q + 1; its twin

@@ -55,7 +55,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..mesh import corner_fans, cross3, drop_smaller_fans, face_keys, half_edges as _directed
+from ..mesh import (corner_fans, cross3, drop_smaller_fans, face_keys, half_edges as _directed,
+                    twins)
 from .fills import refill_small_loops
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
@@ -183,13 +184,17 @@ def _measure(faces: np.ndarray) -> tuple[dict, np.ndarray]:
     if len(main) == 0:
         return {"euler": 0, "boundary_loops": 0, "genus": 0, "components": 0, "vertices": 0,
                 "faces": 0, "pinched": 0}, np.zeros(0, dtype=bool)
-    _, following = _rim_next(main)
-    n = int(main.max()) + 1
-    fans = _fans(main)
+    twin, consistent = twins(main)
+    _, following = _rim_next(main, twin)
+    fans = _fans(main, twin)
     used = fans > 0
     vertices = int(fans.sum())  # each fan its own vertex
-    D = np.sort(_directed(main), axis=1)
-    edges = len(np.unique(D[:, 0] * n + D[:, 1]))
+    if consistent:  # each edge two half-edges, or one on the boundary
+        edges = (len(twin) + int((twin < 0).sum())) // 2
+    else:
+        n = int(main.max()) + 1
+        D = np.sort(_directed(main), axis=1)
+        edges = len(np.unique(D[:, 0] * n + D[:, 1]))
     euler = vertices - edges + len(main)
     loops = _cycles(following)
     return {"euler": euler, "boundary_loops": loops, "genus": (2 - euler - loops) // 2,
@@ -197,19 +202,17 @@ def _measure(faces: np.ndarray) -> tuple[dict, np.ndarray]:
             "pinched": int((fans > 1).sum())}, fans > 1
 
 
-def _rim_next(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _rim_next(F: np.ndarray, twin: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
     """The boundary half-edges of the edge-manifold, consistently oriented mesh ``F``,
     ``(B, 2)``, and for each the one that follows it in its fan's rim (B,): from ``u -> v``
     round ``v`` through the triangles that share its edges, to the fan's other boundary
-    half-edge leaving ``v`` (so that at a pinched vertex each fan keeps its own rim)."""
+    half-edge leaving ``v`` (so that at a pinched vertex each fan keeps its own rim).
+    ``twin``: :func:`pcgeom.mesh.twins`' first, when already found."""
     m = len(F)
     H = _directed(F)
-    n = int(F.max()) + 1
-    key = H[:, 0] * n + H[:, 1]
-    order = np.argsort(key)
-    twin_key = H[:, 1] * n + H[:, 0]
-    at = np.minimum(np.searchsorted(key[order], twin_key), len(key) - 1)
-    twin = np.where(key[order][at] == twin_key, order[at], -1)
+    if twin is None:
+        twin = twins(F)[0]
     boundary = np.flatnonzero(twin < 0)
     slot, tri = boundary // m, boundary % m
     e = ((slot + 1) % 3) * m + tri  # the triangle's half-edge leaving v
@@ -228,12 +231,12 @@ def _rim_next(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return H[boundary], index[found]
 
 
-def _fans(F: np.ndarray) -> np.ndarray:
+def _fans(F: np.ndarray, twin: np.ndarray | None = None) -> np.ndarray:
     """(n,) how many fans each vertex has (its triangles joined through the edges at it)."""
-    label = corner_fans(F)
-    vertex = F.T.ravel()  # node slot * m + tri is F[tri, slot]
-    first = np.unique(label, return_index=True)[1]
-    return np.bincount(vertex[first], minlength=int(F.max()) + 1)
+    label = corner_fans(F, twin)
+    fan_vertex = np.empty(int(label.max()) + 1, dtype=np.int64)
+    fan_vertex[label] = F.T.ravel()  # node slot * m + tri is F[tri, slot]
+    return np.bincount(fan_vertex, minlength=int(F.max()) + 1)
 
 
 def _cycles(following: np.ndarray) -> int:
