@@ -43,3 +43,38 @@ def test_bound_scale_lowers_the_spread():
     X = bound_scale(P, F, U, 10.0)
     assert abs(conformal_distortion(P, X, F) - d0) < 0.01 * d0
     assert abs(spread(P, X, F) - s0) < 0.02 * s0
+
+
+def _prongs(k: int = 6, angle: float = 8.0):
+    """A flat U of two prongs ``k`` cells wide, one cell apart, and its map with the right
+    prong turned ``angle`` degrees about its inner base (blended along it): no triangle
+    folds, but the prongs' tips cross."""
+    h = 1.0 / k
+    ij = [(i, j) for i in range(2 * k + 2) for j in range(3 * k + 1)]
+    idx = {p: n for n, p in enumerate(ij)}
+    F = []
+    for i, j in ij:
+        if i < 2 * k + 1 and j < 3 * k and not (i == k and j >= k):
+            a, b, c, d = idx[(i, j)], idx[(i + 1, j)], idx[(i + 1, j + 1)], idx[(i, j + 1)]
+            F += [[a, b, c], [a, c, d]]
+    F = np.array(F, dtype=np.int64)
+    used, F = np.unique(F, return_inverse=True)
+    XY = np.array(ij, dtype=np.float64)[used] * h
+    x0 = (k + 1) * h
+    t = np.radians(angle) * np.clip((XY[:, 1] - 1) / 2, 0, 1) * (XY[:, 0] >= x0 - 1e-9)
+    c = XY - [x0, 1.0]
+    U = np.column_stack([np.cos(t) * c[:, 0] - np.sin(t) * c[:, 1],
+                         np.sin(t) * c[:, 0] + np.cos(t) * c[:, 1]]) + [x0, 1.0]
+    return np.column_stack([XY, np.zeros(len(XY))]), F.reshape(-1, 3), U
+
+
+def test_onto_outline_makes_a_crossing_boundary_simple():
+    """The prongs' map folds nothing but its boundary crosses itself; onto its outline it is
+    one-to-one (no fold, a simple boundary), the prongs squeezed apart."""
+    from pcgeom.maps.chart_scale import onto_outline
+
+    P, F, U = _prongs()
+    assert (signed_areas(U, F) > 0).all() and not boundary_simple(U, F)
+    X = onto_outline(P, F, U)
+    assert X is not None
+    assert (signed_areas(X, F) > 0).all() and boundary_simple(X, F)

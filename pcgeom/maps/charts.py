@@ -13,8 +13,11 @@ takes the whole mesh as one piece and, recursively:
 3. A chart with no flip, a simple boundary and a spread within the bound (``max_stretch``) is
    kept. One over the bound is first mapped again with its scale bounded
    (:func:`pcgeom.maps.chart_scale.bound_scale`, kept by :func:`_bounded` when it is within the
-   bound, with no flip, at little cost in angle: no seam added). One still over the bound gets
-   a **slit** (up to :data:`SLITS` per chart): a seam along the
+   bound, with no flip, at little cost in angle: no seam added). A chart whose boundary
+   crosses itself in small lobes (at most :data:`PINCH` of its area) is made one-to-one onto
+   the outline of what it covers (:func:`pcgeom.maps.chart_scale.onto_outline`, the barrier
+   map), kept when that is within the bound at little cost in angle. One still over the
+   bound gets a **slit** (up to :data:`SLITS` per chart): a seam along the
    shortest path from its boundary to the vertex whose scale factor is farthest from the
    median (in log: the tip of a finger the conformal map shrinks), then is mapped again (the
    cone-and-cut idea of OptCuts and Boundary First Flattening, with the cut ending at the
@@ -44,7 +47,7 @@ from ..mesh import boundary_loops, euler_characteristic, signed_areas, unique_ed
 from .seams import cut_graph, cut_open
 
 __all__ = ["Piece", "Chart", "fit_charts", "pack_charts", "spread", "charts_overlap",
-           "SLITS", "DEPTH", "TOUCH", "PADDING", "RESOLUTION"]
+           "SLITS", "DEPTH", "TOUCH", "PADDING", "RESOLUTION", "PINCH"]
 
 SLITS = 6
 """Slits a chart over the bound gets before it is split instead."""
@@ -67,6 +70,12 @@ PADDING = 4
 TOUCH = 1e-9
 """A chart whose triangles cover at most this share of its area twice (the two sides of a
 seam crossing by rounding) is one-to-one; more is an overlap."""
+
+PINCH = 1e-3
+"""A chart whose boundary crosses itself over at most this share of its area (the lobes a
+conformal map pinches where it shrinks most: 1.7e-4 to 8.8e-4 on the pretzels of genus 3-4)
+is made one-to-one without a seam (:func:`_outline`); more (the finger's 4e-3 and 1.7e-2)
+is split."""
 
 RESOLUTION = 1024
 """The side, in texels, of the atlas xatlas packs."""
@@ -289,34 +298,64 @@ def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
 def _map(V: np.ndarray, piece: Piece, slits: int, bound: float = np.inf) -> Chart:
     from .atlas import boundary_simple, chart_map, overlap_area
 
-    U, info = chart_map(V[piece.origin], piece.F)
-    U, info = _bounded(V[piece.origin], piece.F, U, dict(info, bounded=False), bound)
-    simple = bool(boundary_simple(U, piece.F))
+    P, F = V[piece.origin], piece.F
+    U, info = chart_map(P, F)
+    U, info, start = _bounded(P, F, U, dict(info, bounded=False, outline=False), bound)
+    simple = bool(boundary_simple(U, F))
+    if not simple and not info["flips"] and overlap_area(U, F) <= PINCH:
+        U, info, simple = _outline(P, F, U, start, info, bound)
     # A seam whose two sides the map keeps together (a slit across a smooth part, a path to
     # a small hole) touches itself: its sides may cross by rounding, no more.
-    covered = 0.0 if simple else overlap_area(U, piece.F)
-    info = dict(info, simple=simple, overlap_area=covered, slits=slits,
-                spread=spread(V[piece.origin], U, piece.F))
+    covered = 0.0 if simple else overlap_area(U, F)
+    info = dict(info, simple=simple, overlap_area=covered, slits=slits, spread=spread(P, U, F))
     info["ok"] = info["flips"] == 0 and covered < TOUCH
     return Chart(piece.faces, piece.F, piece.origin, U, info)
 
 
 def _bounded(P: np.ndarray, F: np.ndarray, U: np.ndarray, info: dict, bound: float
-             ) -> tuple[np.ndarray, dict]:
-    """``U``, or when its spread passes ``bound`` the scale-bounded map
+             ) -> tuple[np.ndarray, dict, np.ndarray]:
+    """``U`` (LSCM), or when its spread passes ``bound`` the scale-bounded map
     (:func:`pcgeom.maps.chart_scale.bound_scale`) if that one has no flip, a spread within the
     bound and a conformal distortion at most :data:`pcgeom.maps.chart_scale.ANGLE_COST` times
-    ``U``'s (``info["bounded"]`` says which)."""
-    from .chart_scale import ANGLE_COST, bound_scale, conformal_distortion
+    ``U``'s (``info["bounded"]`` says which; ``info["conformal"]``: ``U``'s); and the start
+    for :func:`_outline` (the bounded map when it is within the bound, whatever its angles)."""
+    from .chart_scale import ANGLE_COST, FOLDS, bound_scale, conformal_distortion, unfold_locally
 
+    info = dict(info, conformal=conformal_distortion(P, U, F))
     if info["flips"] or not np.isfinite(bound) or spread(P, U, F) <= bound:
-        return U, info
-    W = bound_scale(P, F, U, bound)
-    if (signed_areas(W, F) <= 0).any() or spread(P, W, F) > bound:
-        return U, info
-    if conformal_distortion(P, W, F) > ANGLE_COST * conformal_distortion(P, U, F):
-        return U, info
-    return W, dict(info, bounded=True)
+        return U, info, U
+    W = bound_scale(P, F, U, bound, unfold=False)
+    # Judged before its folds are unfolded (the costly part), and again after.
+    folds = int((signed_areas(W, F) <= 0).sum())
+    if folds > FOLDS * len(F) or spread(P, W, F) > bound:
+        return U, info, U
+    if folds:
+        W = unfold_locally(P, F, W)
+        if (signed_areas(W, F) <= 0).any() or spread(P, W, F) > bound:
+            return U, info, U
+    if conformal_distortion(P, W, F) > ANGLE_COST * info["conformal"]:
+        return U, info, W
+    return W, dict(info, bounded=True), W
+
+
+def _outline(P: np.ndarray, F: np.ndarray, U: np.ndarray, start: np.ndarray, info: dict,
+             bound: float) -> tuple[np.ndarray, dict, bool]:
+    """A chart whose boundary crosses itself made one-to-one without a seam
+    (:func:`pcgeom.maps.chart_scale.onto_outline` from ``start``), kept when it has no flip, a
+    simple boundary, a conformal distortion at most ``ANGLE_COST`` times LSCM's and a spread
+    within ``bound`` (a chart that needs no more seams: one still over the bound is slit or
+    split as before, which leaves the finger as it was); else ``U`` as it was. Returns the
+    map, its info (``outline``: kept) and whether its boundary is simple."""
+    from .atlas import boundary_simple
+    from .chart_scale import ANGLE_COST, conformal_distortion, onto_outline
+
+    X = onto_outline(P, F, start)
+    if X is None or not boundary_simple(X, F):
+        return U, info, False
+    if conformal_distortion(P, X, F) > ANGLE_COST * info["conformal"] or \
+            spread(P, X, F) > bound:
+        return U, info, False
+    return X, dict(info, outline=True, bounded=info["bounded"] or start is not U), True
 
 
 def _tutte(V: np.ndarray, chart: Chart) -> Chart:
@@ -393,7 +432,8 @@ def _rim_length(V: np.ndarray, piece: Piece) -> float:
 def _fit(V: np.ndarray, pieces: list[Piece], max_stretch: float, *, roots: int, slits: int,
          depth: int) -> tuple[list[Chart], dict]:
     """:func:`fit_charts` with the pieces opened by the cut graph from ``roots`` roots."""
-    tally = {"loops": 0, "slits": 0, "splits": 0, "tutte": 0, "short": 0, "bounded": 0}
+    tally = {"loops": 0, "slits": 0, "splits": 0, "tutte": 0, "short": 0, "bounded": 0,
+             "outlines": 0}
     out: list[Chart] = []
     # (piece, splits above it, slits in it, the chart before its last slit)
     work = [(p, 0, 0, None) for p in pieces]
@@ -401,6 +441,7 @@ def _fit(V: np.ndarray, pieces: list[Piece], max_stretch: float, *, roots: int, 
         piece, level, cuts, before = work.pop()
         chart = _map(V, _disk(V, piece, roots, tally), cuts, max_stretch)
         tally["bounded"] += chart.info["bounded"]
+        tally["outlines"] += chart.info["outline"]
         ok = chart.info["ok"]
         if before is not None and ok and chart.info["spread"] * SLIT_GAIN \
                 > before.info["spread"]:
