@@ -16,6 +16,12 @@ of the local mesh (:func:`pcgeom.maps.free.lscm_free`) can be made with landmark
    map had positive, the pins become pulls, the weight divided by 10 until nothing turns
    over (at most :data:`MAX_SOFTENING` times; then the free map moved by step 1's
    similarity), and a warning says so, with how far the landmarks stayed from their targets.
+4. **Polish.** Where nothing folds, :func:`pcgeom.maps.polish.polish_disk` (no rim: the
+   boundary is free) lowers each triangle's anti-conformal ratio against its 3D triangle by
+   reweighted least squares, the landmark vertices held where step 2 put them, no triangle
+   turned over. The pinned solve is libigl's ``lscm(V, F, b, bc)`` on the local mesh (the same
+   angle error to 0.001x on face_3holes_small_choi, 4 pins, seed 2), so what it lacks against
+   the same pins on the true mesh is the local mesh's; polished: 1.241x -> 1.127x of it.
 """
 
 from __future__ import annotations
@@ -160,7 +166,8 @@ def pinned_free(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, landmarks, *,
     info : dict
         ``landmarks`` (``"pinned"``, ``"pulled"``, ``"free"`` when even a pull folds, or
         ``"shifted"``: one target, the free map moved onto it), ``weight`` (the one used, after any
-        softening), ``softened`` (divisions by 10), ``pins`` (vertices held), ``seconds``.
+        softening), ``softened`` (divisions by 10), ``pins`` (vertices held), ``polished``
+        (step 4 kept), ``seconds``.
 
     Warns
     -----
@@ -226,6 +233,12 @@ def pinned_free(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, landmarks, *,
     kind = "pinned" if hard else "pulled"
     if folds:
         U, w = moved, 0.0
+    polished = {"used": False}
+    if not folds:
+        # Step 4: the least anti-conformal map near it, the landmark vertices where they are.
+        from .polish import polish_disk
+
+        U, polished = polish_disk(V, F, U, np.zeros(0, dtype=np.int64), pins, U[pins])
     out = _interpolate_rest(X, _rows(U, main, len(X)), _known(main, len(X)))
     if softened:
         miss = max(hausdorff(out[main[i]], t) for i, t in marks)
@@ -237,5 +250,5 @@ def pinned_free(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, landmarks, *,
                       f"{miss:.3g} from their targets", stacklevel=3)
         kind = "pulled" if not folds else "free"
     return out, {"landmarks": kind, "weight": w if kind != "pinned" else math.inf,
-                 "softened": softened, "pins": len(pins),
+                 "softened": softened, "pins": len(pins), "polished": polished["used"],
                  "seconds": round(time.perf_counter() - t0, 3)}
