@@ -27,12 +27,19 @@ pleats' repaired meshes in the normal rounds have handles that are not bridges (
 0.026 -> 0.068 rad, 0.34 -> 0.73% flipped: their half-circle folds, 0.75 spacings in radius,
 turn by more than a right angle within a triangle).
 
-What is left on the rounded lips sheet with normals (11k, seed 0: 1.03% flipped, LSCM on
-the true mesh itself 0.12%): two thirds of the flips (0.68%) are where a fold tapers off
-(under half its size, narrower than the sampling). Bare (2.6-3.4x LSCM, 2.9-5.6% flipped):
-439 of its 3043 points on the folds get estimated normals turned the wrong way, in patches
-of up to 150 points on the walls and bulbs (the orientation's spanning tree crosses the
-0.75-spacing gap), and the flips follow them.
+What is left on the rounded lips sheet with normals (11k, seeds 0-2: 0.87 / 0.83 / 0.68%
+flipped, LSCM on the true mesh itself 0.12 / 0.10 / 0.04%; benchmarks/bench_bridges.py, "Where
+the flips are"): nearly every flipped true triangle (all but 4-19 of 150-191) is one the local
+mesh lacks, beside a false hole of it (43-121 beside holes of 17 or more points, where a fold
+tapers off) or with a corner outside its main part (26-64); 108-130 lie where a fold is under
+half its size. There the fold is narrower than the sampling and its true triangles join
+corners whose normals point apart: 238-315 of the true mesh's triangles have two corners
+with opposite normals (197-255 of them where a fold tapers), which no fan makes (each keeps
+its neighbours with ``n_i . n_j > 0``); the fans lose 497-556 true triangles, the merge
+224-258 more. A pair across a gap and a pair on a bulb as narrow are alike (two points,
+opposite normals, the chord along them): no rule on pairs tells them apart. Bare (2.2-2.8x
+LSCM, 3.2-5.4% flipped): the orientation crosses the gap (:mod:`pcgeom.maps.normals`), and
+the flips follow its wrong patches.
 
 On the first lips sheet, whose folds met the flat at right-angle creases (``crease_radius=0``):
 what limited it was not bridges alone: its edges were right-angle creases, across

@@ -22,6 +22,26 @@ A bare cloud has to estimate them:
    raise the share of correctly oriented normals from 93.2% to 96.7%. The propagation still
    crosses where the sheets touch over a long stretch. This is why a cloud without normals
    may fold there.
+
+   It crosses even from exact lines: the lips sheet's true normals with random signs
+   (:func:`pcgeom.synthetic_sheets.lips_sheet`, walls 0.75 spacings apart, 11k points, seeds
+   0-2) come out 468 / 34 / 103 points the wrong way, from its PCA normals 443 / 259 / 451
+   (benchmarks/bench_bridges.py). Costs measured and not kept (bare, ``fast``, on the true
+   triangles, side by side in one run, 2026-12-05): the heights in local spacings instead of
+   the unit direction, ``(1 - |n_i . n_j|) + (|n_i . d_ij| + |n_j . d_ij|) / h_i`` (``d_ij``
+   the offset, ``h_i`` the mean distance to the 6 nearest), on 8 neighbours: exact lines 33 /
+   41 / 53 wrong (16 neighbours), PCA lines 294 / 176 / 132; the lips sheet's free map
+   4.88 / 3.07 / 5.34% -> 3.11 / 2.45 / 2.28% flipped but 0.0763 / 0.1103 / 0.0788 ->
+   0.0928 / 0.0990 / 0.0983 rad (its local mesh keeps genus 13-14, for 16: the handles spread
+   the error over the whole sheet), the pleat 1.5 spacings wide free 0.0251 -> 0.0266 rad
+   (0.33 -> 0.14%), face_human_choi free 0.0325 -> 0.0328 rad (2.46 -> 2.28%). With the bridges
+   cut on the bare cloud as well (:mod:`pcgeom.maps.bridges`) the lips sheet's seeds 0 / 2
+   map at 0.0511 / 0.0599 rad, 2.91 / 2.03% (genus 1 / 5), but the pleat at 0.0447. The same
+   pair cost with ``|(n_i + s n_j) . d_ij| / h_i`` for the heights (``s`` the sign of
+   ``n_i . n_j``: zero along any arc of one sheet; but two facing walls look like the two
+   ends of an arc as wide as their gap) mapped worse (lips 0.0848 / 0.1081 / 0.1023 rad, the
+   pleat 0.0357), a spectral orientation (the leading eigenvector of the signed neighbour
+   graph) oriented face_human_choi worse (572 points wrong against 462).
 """
 
 from __future__ import annotations
