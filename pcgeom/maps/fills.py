@@ -32,6 +32,19 @@ Measured (bare / file normals): peaks_7holes_choi 11 / 11 loops after the re-mes
 10 with the ears (its 7 holes and the rim kept; without the empty-circle test one hole was
 filled, 8 / 7).
 The ears' step is off by default (:data:`REFILL_EARS`): it costs maps elsewhere.
+
+What keeps the false loops left open (measured 2026-12-05 on the mesh a bare ``fast`` run
+maps; loops with no point on the true mesh's rim). face_human_choi (39 loops, 1 true): of the
+small loops re-meshed and left, 76 reach a loop that is not small (the region's rim meets a
+long walk through pinched vertices, or one of the 17-37 spacings round the eyes and the
+mouth, where two sheets nearly touch), 10 get no fill, 2 leave points inside unused, 2 turn.
+peaks_three_cgal (4 loops, 1 true): each of its 5 false simple loops turns at one ring and at
+two rings has no simple outline in the plane of its normals (a steep peak). A tangent-plane
+gap test (the widest angle between a loop point's 24 nearest points in their own PCA plane)
+tells face_human_choi's false loops (widest gap mostly under 120 degrees) from its rim (180),
+but not peaks_7holes_choi's small true holes (86-189 degrees); taken as a licence to pass the
+turn test it closed 2 more of face_human_choi's loops (39 -> 37 bare, 26 -> 24 with its mesh's
+normals), the maps unchanged, at 5% more time: not kept.
 """
 
 from __future__ import annotations
