@@ -38,8 +38,9 @@ maps; loops with no point on the true mesh's rim). face_human_choi (39 loops, 1 
 small loops re-meshed and left, 76 reach a loop that is not small (the region's rim meets a
 long walk through pinched vertices, or one of the 17-37 spacings round the eyes and the
 mouth, where two sheets nearly touch), 10 get no fill (the Delaunay triangles of the region's
-points do not keep its rim: a triangulation constrained to the rim with the points inside
-would), 2 leave points inside unused, 2 turn.
+points do not keep its rim; with the rim's edges flipped in, Sloan's way, all 18 tried kept
+it, but the re-meshes were refused after and no loop closed), 2 leave points inside unused,
+2 turn.
 peaks_three_cgal (4 loops, 1 true): each of its 5 false simple loops turns at one ring and at
 two rings has no simple outline in the plane of its normals (a steep peak). A tangent-plane
 gap test (the widest angle between a loop point's 24 nearest points in their own PCA plane)
