@@ -526,9 +526,12 @@ def _polished(X: np.ndarray, mesh: LocalMesh, U: np.ndarray, domain: Domain, lan
     ``info["polish"]``; onto other domains ``U`` as it is."""
     if not isinstance(domain, Disk):
         return U, info
-    from .polish import polish_onto
+    from .polish import AROUND, polish_onto
 
     U, info["polish"] = polish_onto(X, mesh, U, domain, landmarks)
+    if info.get("bend", "none") != "none":
+        # Then with the bend's neighbourhoods of the landmarks held (polish.AROUND).
+        U, info["polish_around"] = polish_onto(X, mesh, U, domain, landmarks, around=AROUND)
     return U, info
 
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["polish_disk", "polish_onto", "CAP", "FLOOR", "PROXIMITY", "ROUNDS", "QUAD_QUALITY",
-           "HOLD"]
+           "AROUND", "HOLD"]
 
 CAP = 0.3
 """Triangles whose anti-conformal ratio is above this (flaps of the local mesh folded over or
@@ -38,11 +38,13 @@ slivers) are left out of the energy."""
 FLOOR = 0.01
 """Added to ``r_t`` in the weights ``1 / (r_t + floor)``."""
 
-PROXIMITY = 1e-3
-"""``mu``: the pull towards the start, times ``k``. Measured, face_3holes_small_choi, four
-landmarks a disk automorphism reaches (|c| 0.31-0.36), seeds 0 and 2: start 1.103x and 1.096x
-the landmark-free angle error; mu 1e-2: 1.059x, 1.044x; 1e-3: 1.046x, 1.031x; 1e-4:
-1.040x, 1.024x (none turned over); the 14k three peaks 1.078/1.028/1.096x at any mu."""
+PROXIMITY = 1e-4
+"""``mu``: the pull towards the start, times ``k``. Measured (one round, no quad kept convex),
+face_3holes_small_choi, four landmarks a disk automorphism reaches (|c| 0.31-0.36), seeds 0
+and 2: start 1.103x and 1.096x the landmark-free angle error; mu 1e-2: 1.059x, 1.044x; 1e-3:
+1.046x, 1.031x; 1e-4: 1.040x, 1.024x (none turned over); the 14k three peaks
+1.078/1.028/1.096x at any mu. In the map (three rounds, quads kept, :data:`AROUND`), seed 2
+1e-3 -> 1e-4: 1.043 -> 1.037x; 0.05 off, seeds 2 and 0: 1.504, 1.473 -> 1.483, 1.462x."""
 
 ROUNDS = 3
 """Reweighted solves (each from the last one's map and weights). face_3holes_small_choi,
@@ -56,6 +58,16 @@ the true surface's. face_3holes_small_choi, free boundary, 4 pins, seed 2: every
 convex, the polish moves nothing (1.241x libigl's pinned LSCM); 0.3: 1.233x; 0.5: 1.127x; none:
 1.127x, and 2 true triangles turned over on the 900 points of the three peaks with 6 pins
 (none at 0.5)."""
+
+AROUND = 0.05
+"""After a bend (linear or barrier), the points within this distance of a landmark point (in
+the unit disk) are held as the bend put them: the bend arranged them so that the landmark
+moves without a fold, and the polish, free there, would undo that (its steps halved to
+nothing). face_3holes_small_choi, four landmarks 0.05 off an automorphism's image, seeds
+0-2, barrier map 1.549/1.345/1.558x the landmark-free angle error: held within 0 (the
+landmarks alone) 1.549/1.314/1.558x; 0.03: 1.465/1.332/1.504x; 0.05: 1.464/1.222/1.495x;
+0.1: 1.487/1.231/1.505x; 0.2: 1.507/1.253/1.530x. On the 14k and 1.9k three peaks every
+step folds (nothing changes)."""
 
 HOLD = 1e4
 """``W``: the weight of the landmark pairs, times ``k``."""
@@ -217,10 +229,13 @@ def polish_disk(V: np.ndarray, F: np.ndarray, Z: np.ndarray, rim: np.ndarray,
                                 "after": round(after, 5)}
 
 
-def polish_onto(X: np.ndarray, mesh, U: np.ndarray, domain, landmarks) -> tuple[np.ndarray, dict]:
+def polish_onto(X: np.ndarray, mesh, U: np.ndarray, domain, landmarks, *,
+                around: float = 0.0) -> tuple[np.ndarray, dict]:
     """:func:`polish_disk` of the map ``U`` (N, 2) of every row of ``X`` onto the disk
     ``domain``, on the local mesh's main part, its landmark pairs as the barrier map pairs
-    them (:mod:`pcgeom.maps.injective.landmarks`); the other rows interpolated."""
+    them (:mod:`pcgeom.maps.injective.landmarks`); the other rows interpolated. ``around``
+    (in the unit disk's units; :data:`AROUND` after a bend): the points that close to a
+    landmark point are held where ``U`` has them too."""
     import time
 
     from .domain import _main_loops, _on_all_rows, _on_main
@@ -236,6 +251,13 @@ def polish_onto(X: np.ndarray, mesh, U: np.ndarray, domain, landmarks) -> tuple[
     marks = _on_main([(i, (np.asarray(q, dtype=np.float64) - centre) / radius)
                       for i, q in landmarks], main, len(X))
     index, q, _ = _landmark_pairs(V, D, marks, 1.0)
+    if around > 0:
+        from scipy.spatial import cKDTree
+
+        near = cKDTree(D).query_ball_point(D[np.unique(index)], around)
+        near = np.setdiff1d(np.concatenate([np.asarray(k, dtype=np.int64) for k in near]),
+                            index)
+        index, q = np.concatenate([index, near]), np.vstack([q, D[near]])
     B, info = polish_disk(V, F, D, rim, index, q)
     info["seconds"] = round(time.perf_counter() - t0, 3)
     if not info["used"]:
