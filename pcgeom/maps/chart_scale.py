@@ -65,8 +65,6 @@ map's (issue 38 allows 1.5x libigl's LSCM on the same seams, measured on the tru
 this leaves a margin for the difference). Genus-4 pretzel, its one chart: 5k, bounded 1.00x,
 onto its outline 1.16x; 20k 1.26x and 1.21x."""
 
-FLIP_GUARD = 0.01
-
 OUTLINE_STEPS = 15
 """Steps of the barrier descent in :func:`onto_outline` (genus-4 pretzel 5k, one chart: 15
 steps 3.4 s, 1.16x LSCM's conformal distortion; to convergence, 44 steps, 6.8 s, 1.14x)."""
@@ -193,12 +191,15 @@ def onto_outline(P: np.ndarray, F: np.ndarray, U0: np.ndarray, *, steps: int = O
     ring = np.asarray(region.exterior.coords)
     if shoelace(ring[:-1]) < 0:
         ring = ring[::-1]
-    loop, start = _on_ring(U0, loop, ring)
-    config = InjectiveConfig(barrier=BarrierConfig(iterations=steps, flip_guard=FLIP_GUARD))
-    try:
-        U, info = injective_map(P, F, start, [loop], [ring], config=config)
+    config = InjectiveConfig(barrier=BarrierConfig(iterations=steps))
+    try:  # the boundary at its nearest points on the outline, when they are in order
+        U, info = injective_map(P, F, U0, [loop], [ring], config=config)
     except ValueError:
-        return None
+        loop, start = _on_ring(U0, loop, ring)
+        try:
+            U, info = injective_map(P, F, start, [loop], [ring], config=config)
+        except ValueError:
+            return None
     return U if info.get("flipped_all", 1) == 0 and not (signed_areas(U, F) <= 0).any() else None
 
 
