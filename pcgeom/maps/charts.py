@@ -47,7 +47,8 @@ from ..mesh import boundary_loops, euler_characteristic, signed_areas, unique_ed
 from .seams import cut_graph, cut_open
 
 __all__ = ["Piece", "Chart", "fit_charts", "pack_charts", "spread", "charts_overlap",
-           "SLITS", "DEPTH", "TOUCH", "PADDING", "RESOLUTION", "PINCH"]
+           "SLITS", "DEPTH", "TOUCH", "PADDING", "RESOLUTION", "PINCH",
+           "OUTLINE_TRIES"]
 
 SLITS = 6
 """Slits a chart over the bound gets before it is split instead."""
@@ -76,6 +77,11 @@ PINCH = 1e-3
 conformal map pinches where it shrinks most: 1.7e-4 to 8.8e-4 on the pretzels of genus 3-4)
 is made one-to-one without a seam (:func:`_outline`); more (the finger's 4e-3 and 1.7e-2)
 is split."""
+
+OUTLINE_TRIES = 3
+"""Charts of one atlas that :func:`_outline` tries (a barrier map each, 1-9 s at 5k-20k
+points); the later ones are split as before. The pretzels need one; face_human_choi, whose
+repaired local mesh keeps false holes and handles, tried 21 (none kept) in 49 of its 69 s."""
 
 RESOLUTION = 1024
 """The side, in texels, of the atlas xatlas packs."""
@@ -295,14 +301,16 @@ def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
     return _parts(piece, cut, E)
 
 
-def _map(V: np.ndarray, piece: Piece, slits: int, bound: float = np.inf) -> Chart:
+def _map(V: np.ndarray, piece: Piece, slits: int, bound: float = np.inf, *,
+         outline: bool = False) -> Chart:
     from .atlas import boundary_simple, chart_map, overlap_area
 
     P, F = V[piece.origin], piece.F
     U, info = chart_map(P, F)
     U, info, start = _bounded(P, F, U, dict(info, bounded=False, outline=False), bound)
     simple = bool(boundary_simple(U, F))
-    if not simple and not info["flips"] and overlap_area(U, F) <= PINCH:
+    info["outline_tried"] = False
+    if outline and not simple and not info["flips"] and overlap_area(U, F) <= PINCH:
         U, info, simple = _outline(P, F, U, start, info, bound)
     # A seam whose two sides the map keeps together (a slit across a smooth part, a path to
     # a small hole) touches itself: its sides may cross by rounding, no more.
@@ -349,6 +357,9 @@ def _outline(P: np.ndarray, F: np.ndarray, U: np.ndarray, start: np.ndarray, inf
     from .atlas import boundary_simple
     from .chart_scale import ANGLE_COST, conformal_distortion, onto_outline
 
+    if spread(P, start, F) > bound:  # the outline keeps its shape: it would stay over
+        return U, info, False
+    info = dict(info, outline_tried=True)
     X = onto_outline(P, F, start)
     if X is None or not boundary_simple(X, F):
         return U, info, False
@@ -433,13 +444,15 @@ def _fit(V: np.ndarray, pieces: list[Piece], max_stretch: float, *, roots: int, 
          depth: int) -> tuple[list[Chart], dict]:
     """:func:`fit_charts` with the pieces opened by the cut graph from ``roots`` roots."""
     tally = {"loops": 0, "slits": 0, "splits": 0, "tutte": 0, "short": 0, "bounded": 0,
-             "outlines": 0}
+             "outlines": 0, "outline_tries": 0}
     out: list[Chart] = []
     # (piece, splits above it, slits in it, the chart before its last slit)
     work = [(p, 0, 0, None) for p in pieces]
     while work:
         piece, level, cuts, before = work.pop()
-        chart = _map(V, _disk(V, piece, roots, tally), cuts, max_stretch)
+        chart = _map(V, _disk(V, piece, roots, tally), cuts, max_stretch,
+                     outline=tally["outline_tries"] < OUTLINE_TRIES)
+        tally["outline_tries"] += chart.info["outline_tried"]
         tally["bounded"] += chart.info["bounded"]
         tally["outlines"] += chart.info["outline"]
         ok = chart.info["ok"]
