@@ -497,3 +497,26 @@ def test_main_part_is_joined_through_edges_not_corners():
     assert np.isfinite(U).all()
     scale = np.linalg.norm(U[1] - U[0])
     assert np.linalg.norm(U[6:] - U[5], axis=1).max() < 2 * scale
+
+
+def test_unmeshed_points_are_placed_from_their_own_sheet_with_normals():
+    """A point of a sheet whose nearest meshed points include a facing sheet's (a fold
+    narrower than the spacing), mapped far away: with normals it takes its own sheet's
+    affine map exactly; without, the two sheets' mean; a stray (zero normal) the mean."""
+    from pcgeom.maps.localmesh import _interpolate_rest
+
+    g = np.stack(np.meshgrid(np.arange(-3.0, 4.0), np.arange(-3.0, 4.0)), -1).reshape(-1, 2)
+    X = np.vstack([np.column_stack([g, np.zeros(len(g))]),  # sheet A, normal +z
+                   np.column_stack([g + 0.5, np.full(len(g), 0.3)]),  # sheet B, facing it
+                   [[0.2, 0.1, 0.0], [0.2, 0.1, 0.15]]])  # A's unmeshed point, a stray
+    N = np.zeros_like(X)
+    N[:len(g), 2], N[len(g):2 * len(g), 2], N[-2, 2] = 1.0, -1.0, 1.0
+    U = np.full((len(X), 2), np.nan)
+    U[:len(g)] = 2 * g + [1.0, -1.0]  # A's map: affine
+    U[len(g):2 * len(g)] = g + [100.0, 0.0]  # B's: far away (the other side of the fold)
+    known = ~np.isnan(U[:, 0])
+    with_normals = _interpolate_rest(X, U.copy(), known, N)
+    assert np.allclose(with_normals[-2], [1.4, -0.8])
+    plain = _interpolate_rest(X, U.copy(), known)
+    assert plain[-2, 0] > 20  # pulled towards the facing sheet
+    assert np.allclose(with_normals[-1], plain[-1])  # the stray: the inverse-distance mean

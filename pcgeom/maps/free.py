@@ -150,7 +150,7 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
     flat = whole(z)
     U = np.full((len(X), 2), np.nan)
     U[main] = np.column_stack([flat[:m], flat[m:]])
-    return _principal_pose(_interpolate_rest(X, U, mesh.main))
+    return _principal_pose(_interpolate_rest(X, U, mesh.main, mesh.normals))
 
 
 DEGENERATE = ("the local mesh of the cloud is degenerate (LSCM has no unique solution); try "
