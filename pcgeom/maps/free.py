@@ -5,7 +5,8 @@
    area, with two far-apart points pinned. Points outside the mesh's largest connected part
    take the distance-weighted mean of the map at their nearest meshed points (they are
    counted); with the cloud's own normals, the affine fit to their same-sheet ones
-   (:data:`pcgeom.maps.localmesh.PLACE_WITH_INPUT_NORMALS`). **Robust rounds** (``LocalMeshConfig.robust_rounds``, not in LSCM): a local
+   (:data:`pcgeom.maps.localmesh.PLACE_WITH_INPUT_NORMALS`). **Robust rounds**
+   (``LocalMeshConfig.robust_rounds``, not in LSCM): a local
    mesh has triangles no surface map can keep conformal with the rest (where a fold bends
    within a spacing or two, across a crease's walls), and least squares spreads their error
    over the whole map. Each round solves again with every triangle's conformal energy
