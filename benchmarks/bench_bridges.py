@@ -139,8 +139,9 @@ def flip_rows() -> list[dict]:
     from pcgeom.cloud import normalize
     from pcgeom.config import get_preset
     from pcgeom.maps.free import free_start
+    from pcgeom.maps.localmesh import mesh_flips
     from pcgeom.maps.topology import simple_loops
-    from pcgeom.mesh import face_keys
+    from pcgeom.mesh import edge_sides, face_keys
     from pcgeom.synthetic_sheets import lips_sheet
 
     rows = []
@@ -160,7 +161,12 @@ def flip_rows() -> list[dict]:
             for loop in loops:
                 size[loop] = np.maximum(size[loop], len(loop))
             at = size[s.faces[flipped]].max(axis=1)
+            rim = np.unique(edge_sides(s.faces)[0][edge_sides(s.faces)[1]])
             rows.append({
+                "own": mesh_flips(Xn, mesh, uv)["count"], "own_faces": len(F),
+                "rim_slivers": int((flipped & np.isin(s.faces, rim).any(axis=1)
+                                    & (_widest_angle(s.points, s.faces) > 170)).sum()),
+                "crossing": f"{sum(not _simple(uv, x) for x in loops)} / {len(loops)}",
                 "seed": seed, "normals": tag, "flipped": int(flipped.sum()),
                 "lscm": int(ref.sum()), "both": int((flipped & ref).sum()),
                 "in_mesh": int((flipped & np.isin(face_keys(s.faces, n),
@@ -174,6 +180,22 @@ def flip_rows() -> list[dict]:
                 "taper": int((flipped & taper).sum()), "faces": len(s.faces)})
             harness.log(f"flips seed {seed} {tag}: {rows[-1]}")
     return rows
+
+
+def _widest_angle(X, F) -> np.ndarray:
+    """Each triangle's widest angle, in degrees."""
+    P = X[F]
+    a, b = P[:, [1, 2, 0]] - P, P[:, [2, 0, 1]] - P
+    cos = (a * b).sum(axis=2) / np.maximum(np.linalg.norm(a, axis=2)
+                                           * np.linalg.norm(b, axis=2), 1e-300)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).max(axis=1)
+
+
+def _simple(uv, loop) -> bool:
+    """Whether the loop's image in the map is a simple polygon."""
+    from shapely.geometry import LineString
+
+    return LineString(np.vstack([uv[loop], uv[loop[:1]]])).is_simple
 
 
 def stage_rows() -> list[dict]:
@@ -414,14 +436,22 @@ def main(argv=None) -> None:
               "of the mesh (a boundary loop other than the rim: the longest such loop at a "
               "corner, of 3-4 / 5-16 / 17 or more points; the mesh's false loops so counted), "
               "where a fold tapers (a corner on or beside a fold under half its size); LSCM "
-              "on the true mesh beside it.", ""]
+              "on the true mesh beside it; the flipped true triangles on the true mesh's rim "
+              "with an angle over 170 degrees (slivers of the random sampling's rim, which no "
+              "local mesh has); the map's flips of its own local mesh "
+              "(pcgeom.maps.localmesh.mesh_flips); the mesh's false loops whose image in the "
+              "map crosses itself (the mesh round the hole overlaps itself in the map: its own "
+              "triangles keep their orientation, the true triangles across the hole turn "
+              "over).", ""]
     lines += harness.table([
         ("seed", "{seed}"), ("normals", "{normals}"),
         ("flipped", lambda r: f"{r['flipped']} ({100 * r['flipped'] / r['faces']:.2f}%)"),
         ("in the local mesh", "{in_mesh}"), ("unmeshed corner", "{unmeshed}"),
         ("beside a false hole 3-4 / 5-16 / 17+", "{small} / {mid} / {large}"),
         ("false loops 3-4 / 5-16 / 17+", "{loops}"), ("where a fold tapers", "{taper}"),
-        ("LSCM flipped (both)", "{lscm} ({both})")], flips)
+        ("LSCM flipped (both)", "{lscm} ({both})"),
+        ("rim slivers", "{rim_slivers}"), ("own mesh flipped", "{own} / {own_faces}"),
+        ("false loops crossing themselves in the map", "{crossing}")], flips)
     lines += ["", "The true triangles (its normals) that the local mesh's steps lose, in all "
               "(where a fold tapers): after the fans, their merge (standing triangles left "
               "out), the drop of those that turn from their normals, the repair with bridges "
