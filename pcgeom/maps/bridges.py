@@ -41,6 +41,26 @@ opposite normals, the chord along them): no rule on pairs tells them apart. Bare
 LSCM, 3.2-5.4% flipped): the orientation crosses the gap (:mod:`pcgeom.maps.normals`), and
 the flips follow its wrong patches.
 
+Measured again after the unmeshed points were placed from their own sheet (2026-12-05, with
+normals, seeds 0-2: 167 / 177 / 136 true triangles flipped, 0.76 / 0.81 / 0.62%): the map
+turns over 12 / 21 / 5 of its own local mesh's 21.8k triangles, so a flip-free finish on the
+local mesh (:mod:`pcgeom.maps.injective`) could mend at most those; 14 / 30 / 24 flipped
+true triangles are slivers of the sampling's rim (an angle over 170 degrees) that no local
+mesh has; the rest lie across false holes where a fold tapers, and 36 / 45 / 39 of the
+mesh's 55 / 65 / 56 false loops cross themselves in the map: the mesh round them overlaps
+itself (a flap of the fold attached on one side, swung over the flat) while none of its
+triangles turns. Not kept, one run each, seeds 0-2 with normals (x LSCM, flipped %), before
+the unmeshed points were so placed: each false loop with opposite normals filled in the
+map's solve by a cone to its centroid (0.87 / 1.23 / 0.99x, 0.81 / 0.83 / 0.68% -> 1.79 /
+2.81 / 1.93x, 0.75 / 0.78 / 0.59%), by its least-area triangulation in space (1.33 / 2.75 /
+1.73x, 0.61 / 0.73 / 0.58%), by the true triangles on its points (the truth known: 1.11 /
+1.43 / 1.15x, 0.68 / 0.69 / 0.56%); triangles dropped whose edge passes within half its
+length of a point whose normal is over 60 degrees from both ends' (a lid over a tapering
+fold), after the merge (0.87 / 1.23 / 0.99x, 0.81 / 0.83 / 0.68% -> 0.93 / 1.21 / 1.03x,
+0.88 / 0.77 / 0.76%) or, with the unmeshed points placed from their own sheet, as candidates
+before it (0.85 / 1.22 / 0.97x, 0.76 / 0.81 / 0.62% -> 0.90 / 1.19 / 1.01x, 0.84 / 0.72 /
+0.69%).
+
 On the first lips sheet, whose folds met the flat at right-angle creases (``crease_radius=0``):
 what limited it was not bridges alone: its edges were right-angle creases, across
 which true normals have ``n_i . n_j = 0`` and the fans (same-sheet neighbours: ``> 0``) join
