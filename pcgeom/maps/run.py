@@ -319,7 +319,8 @@ def parametrize(
     if kind == "sphere":
         uv, lam_inv, record, faces = sphere_map(Xn, normals, config, progress=progress,
                                                 outlier=outlier,
-                                                raw=raw if denoised["applied"] else None)
+                                                raw=raw if denoised["applied"] else None,
+                                                noise=denoised["noise"])
         report(record, uv)
         return result(uv, lam_inv, [record], faces=faces)
     if kind == "disk":

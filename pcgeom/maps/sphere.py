@@ -491,13 +491,16 @@ def closed_mesh(Xn: np.ndarray, mesh) -> tuple[np.ndarray, np.ndarray, dict]:
 
 
 def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: bool,
-               outlier: np.ndarray | None = None, raw: np.ndarray | None = None
-               ) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
+               outlier: np.ndarray | None = None, raw: np.ndarray | None = None,
+               noise: float | None = None) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
     """The sphere map of a run: the cloud's local mesh (:func:`pcgeom.maps.localmesh.
     mesh_cloud`), closed (:func:`closed_mesh`), mapped by :func:`best_sphere_map`;
     when the points were denoised (``raw``: the input points, rows of ``Xn``), each is then
     placed at the image of its input point's place along the surface
-    (:func:`pcgeom.maps.sphere_place.place_input`); points off the mesh take the normalised
+    (:func:`pcgeom.maps.sphere_place.place_input`), or, where that cannot be done (the
+    surface's normals disagree), the map is made of points moved only ``noise`` (the
+    denoiser's estimate in spacings) of the way to the fitted ones
+    (:func:`pcgeom.maps.sphere_place.mapped_points`); points off the mesh take the normalised
     inverse-distance mean of their nearest meshed points' unit vectors.
 
     Returns
@@ -512,8 +515,9 @@ def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: 
         (triangles added to close gaps, less those of the smaller fans dropped),
         ``method`` and ``own_rad`` (:func:`best_sphere_map`'s choice, and each method's mean
         angle error on the closed mesh), ``placed`` (:func:`pcgeom.maps.sphere_place.
-        place_input`'s record; ``applied`` False without ``raw``), the linear map's ``mu_scale`` and
-        ``mobius_rounds``, ``flips`` (``count``, ``faces``: chord
+        place_input`'s record, and ``step``: the part of the way to the fitted points the
+        mapped points were moved; ``applied`` False without ``raw``), the linear map's
+        ``mu_scale`` and ``mobius_rounds``, ``flips`` (``count``, ``faces``: chord
         triangles of the closed mesh turned over), ``onto`` ("sphere"), ``solver`` and
         ``seconds``.
     faces : (M, 3) int64
@@ -527,6 +531,7 @@ def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: 
     """
     from .free import conformal_factor, mesh_for
     from .localmesh import _interpolate_rest
+    from .sphere_place import mapped_points, place_input
 
     t0 = time.perf_counter()
     mesh, normals, record = mesh_for(Xn, normals, config, progress=progress, outlier=outlier,
@@ -534,12 +539,14 @@ def sphere_map(Xn: np.ndarray, normals: np.ndarray | None, config, *, progress: 
     index, F, topology = closed_mesh(Xn, mesh)
     V = Xn[index]
     F = outward(V, F)  # the normals may have been oriented inward
-    S_main, stats = best_sphere_map(V, F)
-    placed = {"applied": False}
+    placed = {"applied": False, "step": 1.0}
+    # A denoised cloud: the points the map is made of (the fitted ones, or a part of the way
+    # to them where the slide along the surface cannot be undone).
+    W, gate, step = (V, None, 1.0) if raw is None else mapped_points(V, raw[index], noise)
+    S_main, stats = best_sphere_map(W, F)
     if raw is not None:
-        from .sphere_place import place_input
-
-        S_main, placed = place_input(S_main, V, raw[index], F)
+        S_main, placed = place_input(S_main, W, raw[index], F, gate=gate)
+        placed["step"] = step
         stats["flips"] = int(sphere_flips(S_main, F).sum())
     S = np.full((len(Xn), 3), np.nan)
     S[index] = S_main
