@@ -34,7 +34,7 @@ from the input points to the fitted ones (:func:`mapped_points`), the noise leve
 normals costs less than half the slide, since a point moved along the surface changes its
 triangles' angles to first order and one moved off it to second. The noisy david head (depth
 noise 0.25 / 0.5 / 1 mean edges, estimated 0.31 / 0.55 / 0.91 spacings): 0.0520 / 0.1021 /
-0.2525 rad -> 0.0399 / 0.0874 / 0.2490 (seed 0; its anchor on the noisy true mesh 0.0516 at
+0.2525 rad -> 0.0402 / 0.0874 / 0.2490 (seed 0; its anchor on the noisy true mesh 0.0516 at
 0.25; flips 0 / 49 / 573 -> 0 / 31 / 571). A fixed part is worse at one end or the other:
 half the way 0.0409 / 0.0881 / 0.2752, three quarters 0.0470 / 0.0918 / 0.2349; on a smooth
 shape whose normals disagree only under strong noise (a peanut sampled as a scan, noise 1
