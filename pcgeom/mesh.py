@@ -379,6 +379,16 @@ def twins(F: np.ndarray) -> tuple[np.ndarray, bool]:
     oriented and edge-manifold)."""
     n = int(F.max()) + 1
     H = half_edges(F)
+    # The half-edges sorted by their undirected edge: each edge's two halves side by side
+    # (one sort, no search), when no edge has more than two and those two run opposite.
+    ukey = np.minimum(H[:, 0], H[:, 1]) * n + np.maximum(H[:, 0], H[:, 1])
+    order = np.argsort(ukey)
+    pair = np.flatnonzero(ukey[order[1:]] == ukey[order[:-1]])
+    first, second = order[pair], order[pair + 1]
+    if not ((pair[1:] == pair[:-1] + 1).any() or (H[first, 0] == H[second, 0]).any()):
+        twin = np.full(len(H), -1, dtype=np.int64)
+        twin[first], twin[second] = second, first
+        return twin, True
     key = H[:, 0] * n + H[:, 1]
     order = np.argsort(key)
     ordered = key[order]

@@ -48,6 +48,18 @@ tells face_human_choi's false loops (widest gap mostly under 120 degrees) from i
 but not peaks_7holes_choi's small true holes (86-189 degrees); taken as a licence to pass the
 turn test it closed 2 more of face_human_choi's loops (39 -> 37 bare, 26 -> 24 with its mesh's
 normals), the maps unchanged, at 5% more time: not kept.
+A fill drawn in an embedding instead of the plane of the normals (measured 2026-12-05, not
+kept): loops left no longer than 2.5 bound circles whose points' median widest gap (the
+cloud's points within 2 local spacings, in the point's tangent plane) is under 120 degrees,
+capped by a virtual point and, with one to three rings of triangles round them (each fan of a
+pinched vertex its own point, other loops in the rings capped too), laid out by Tutte's
+embedding (the outer rim on a circle); every triangulation of the loop inside its outline
+there, none of whose diagonals the mesh has, was tried. It closed none: face_human_choi 11 of
+19 short loops interior bare, 2 of 15 with its mesh's normals, peaks_three_cgal 3 of 3 and 3
+of 6, and for each every such triangulation has a triangle facing away from its corners'
+normals (the mesh round the loop overlaps itself: a loop's fill cannot mend that, its
+neighbourhood's triangles must change); the test also called one of peaks_7holes_choi's true
+holes interior (median gap 95 degrees).
 """
 
 from __future__ import annotations
@@ -199,10 +211,18 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
     # changed: no point in its ball re-meshed, and the loops that stopped it the same.
     failed: dict = {}
     touched = None
+    cloud = None  # a cKDTree of the points not excluded, built when first needed
     for _ in range(REFILL_ROUNDS):
         if not len(faces):
             break
-        rim, walks = rim_walks(faces)
+        m = len(faces)
+        H = _directed(faces)  # (3M, 2); the half-edges' order serves their twins too
+        hkey = H[:, 0] * n + H[:, 1]
+        horder = np.argsort(hkey)
+        hsorted = hkey[horder]
+        twin_key = H[:, 1] * n + H[:, 0]
+        at = np.minimum(np.searchsorted(hsorted, twin_key), len(hkey) - 1)
+        rim, walks = rim_walks(faces, np.where(hsorted[at] == twin_key, horder[at], -1))
         perimeter = np.linalg.norm(X[rim[:, 1]] - X[rim[:, 0]], axis=1)
         walk_keys = [frozenset(rim[w, 0].tolist()) for w in walks]
         walk_id = np.full(len(rim), -1, dtype=np.int64)
@@ -223,15 +243,8 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         walk_of = np.full(len(rim), -1, dtype=np.int64)
         for k, (_, w, _) in enumerate(small):
             walk_of[w] = k
-        m = len(faces)
-        H = _directed(faces)  # (3M, 2)
-        hkey = H[:, 0] * n + H[:, 1]
-        horder = np.argsort(hkey)
-        hsorted = hkey[horder]
         rim_key = rim[:, 0] * n + rim[:, 1]
         rim_order = np.argsort(rim_key)
-        U = np.sort(H, axis=1)
-        ukeys, ucount = np.unique(U[:, 0] * n + U[:, 1], return_counts=True)
         corner = faces.T.ravel()  # corner slot * m + tri is faces[tri, slot]
         corder = np.argsort(corner, kind="stable")
         cstart = np.searchsorted(corner[corder], np.arange(n + 1))
@@ -241,7 +254,8 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             used |= np.asarray(exclude, dtype=bool)
         free = np.flatnonzero(~used)
         tree = cKDTree(X[free]) if len(free) else None
-        cloud = cKDTree(X if exclude is None else X[~np.asarray(exclude, dtype=bool)])
+        if cloud is None:
+            cloud = cKDTree(X if exclude is None else X[~np.asarray(exclude, dtype=bool)])
         busy = np.zeros(m, dtype=bool)
         fills, added_edges = [], set()
 
@@ -298,6 +312,11 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             else:
                 return None
             looked[k] = (T, looked[k][1])
+            if (np.einsum("kd,kd->k", normals[loop], normals[np.roll(loop, -1)])
+                    <= np.cos(np.radians(2.0 * REFILL_TURN))).any():
+                # The fill's triangle at that loop edge turns more than REFILL_TURN from
+                # one of its ends' normals: no fill passes the turn test (a cheap test first).
+                return None
             region = np.unique(faces[T])
             inside = np.setdiff1d(region, loop)
             if exclude is not None:
@@ -326,8 +345,11 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             ek, ec = np.unique(E[:, 0] * n + E[:, 1], return_counts=True)
             inner_edges = ek[ec == 2]
             Tk, Tc = np.unique(np.sort(D, axis=1) @ np.array([n, 1]), return_counts=True)
-            at = np.minimum(np.searchsorted(ukeys, inner_edges), len(ukeys) - 1)
-            total = np.where(ukeys[at] == inner_edges, ucount[at], 0)
+            # (Triangles of the mesh at each edge: one per direction, the mesh consistently
+            # oriented.)
+            lo, hi = inner_edges // n, inner_edges % n
+            total = (has_half(lo * n + hi).astype(np.int64)
+                     + has_half(hi * n + lo).astype(np.int64))
             at = np.minimum(np.searchsorted(Tk, inner_edges), len(Tk) - 1)
             total = total - np.where(Tk[at] == inner_edges, Tc[at], 0)
             if (total > 0).any() or not added_edges.isdisjoint(ek.tolist()):
@@ -364,8 +386,9 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             E = np.sort(_directed(F), axis=1)
             ek, ec = np.unique(E[:, 0] * n + E[:, 1], return_counts=True)
             inner_edges = ek[ec == 2]
-            at = np.minimum(np.searchsorted(ukeys, inner_edges), len(ukeys) - 1)
-            if (float(width.max()) > REFILL_WIDTH * bound or (ukeys[at] == inner_edges).any()
+            lo, hi = inner_edges // n, inner_edges % n
+            if (float(width.max()) > REFILL_WIDTH * bound
+                    or (has_half(lo * n + hi) | has_half(hi * n + lo)).any()
                     or not added_edges.isdisjoint(ek.tolist())):
                 continue
             busy[ear] = True

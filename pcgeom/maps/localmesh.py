@@ -394,6 +394,8 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
 
     n = len(X)
     kept = np.arange(n) if exclude is None else np.flatnonzero(~np.asarray(exclude, bool))
+    if knn is None:  # found here once, for the fans and the repair's spacing
+        knn = Neighbours.of(X[kept], neighbours)
     candidates = kept[_fans(X[kept], normals[kept], neighbours, progress, knn=knn)]
     faces, n_candidates = _merge(X, normals, candidates, facing)
     del candidates

@@ -169,7 +169,7 @@ def measure(faces: np.ndarray) -> dict:
     return _measure(faces)[0]
 
 
-def _measure(faces: np.ndarray) -> tuple[dict, np.ndarray]:
+def _measure(faces: np.ndarray, found: dict | None = None) -> tuple[dict, np.ndarray]:
     """Euler characteristic, boundary loops, genus, parts and pinched vertices of the largest
     part of the mesh ``faces`` (M, 3) (edge-manifold, consistently oriented), its pinched
     vertices split (each open fan its own vertex, as libigl's ``split_nonmanifold``).
@@ -178,13 +178,16 @@ def _measure(faces: np.ndarray) -> tuple[dict, np.ndarray]:
     -------
     dict
         ``euler``, ``boundary_loops``, ``genus``, ``components``, ``vertices``, ``faces``,
-        ``pinched``; and (n,) bool, the pinched vertices.
+        ``pinched``; and (n,) bool, the pinched vertices. ``found`` (a dict), when given,
+        receives ``twin``: :func:`pcgeom.mesh.twins`' first of ``faces`` (when it is one part).
     """
     main, parts = _main_faces(np.asarray(faces, dtype=np.int64))
     if len(main) == 0:
         return {"euler": 0, "boundary_loops": 0, "genus": 0, "components": 0, "vertices": 0,
                 "faces": 0, "pinched": 0}, np.zeros(0, dtype=bool)
     twin, consistent = twins(main)
+    if parts == 1 and found is not None:
+        found["twin"] = twin
     _, following = _rim_next(main, twin)
     fans = _fans(main, twin)
     used = fans > 0
@@ -254,10 +257,12 @@ def _cycles(following: np.ndarray) -> int:
 # --------------------------------------------------------------------------- loops
 
 
-def rim_walks(F: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+def rim_walks(F: np.ndarray, twin: np.ndarray | None = None
+              ) -> tuple[np.ndarray, list[np.ndarray]]:
     """The boundary half-edges of ``F`` (B, 2) and its boundary loops as walks (each a list of
-    indices into them, in order; a pinched vertex may come twice)."""
-    rim, following = _rim_next(F)
+    indices into them, in order; a pinched vertex may come twice). ``twin``:
+    :func:`pcgeom.mesh.twins`' first, when already found."""
+    rim, following = _rim_next(F, twin)
     seen = np.zeros(len(rim), dtype=bool)
     nxt = following.tolist()
     walks = []
@@ -273,15 +278,16 @@ def rim_walks(F: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
     return rim, walks
 
 
-def simple_loops(faces: np.ndarray) -> list[np.ndarray]:
+def simple_loops(faces: np.ndarray, twin: np.ndarray | None = None) -> list[np.ndarray]:
     """The boundary loops of the edge-manifold, consistently oriented mesh ``faces`` (each
     fan of a pinched vertex keeps its own rim, :func:`_rim_next`), each cut at its repeated
     vertices into simple loops, in the direction of the faces' boundary edges (each loop
-    edge ``a -> b`` is an edge of a triangle as it turns)."""
+    edge ``a -> b`` is an edge of a triangle as it turns). ``twin``:
+    :func:`pcgeom.mesh.twins`' first, when already found."""
     F = np.asarray(faces, dtype=np.int64)
     if len(F) == 0:
         return []
-    rim, walks = rim_walks(F)
+    rim, walks = rim_walks(F, twin)
     out = []
     for walk in walks:
         if len(walk) >= 3:
@@ -324,15 +330,6 @@ def enclosing_radius(X: np.ndarray, F: np.ndarray) -> np.ndarray:
     circum = np.sqrt(e.prod(axis=1)) / np.maximum(2.0 * area2, 1e-300)
     obtuse = 2.0 * longest >= e.sum(axis=1)
     return np.where(obtuse, 0.5 * np.sqrt(longest), circum)
-
-
-def vertex_spacing(X: np.ndarray, F: np.ndarray, n: int) -> np.ndarray:
-    """(n,) mean length of the mesh's edges at each vertex (0 where none)."""
-    E = _directed(F)
-    length = np.linalg.norm(X[E[:, 0]] - X[E[:, 1]], axis=1)
-    total = np.bincount(E.ravel(), np.repeat(length, 2), minlength=n)
-    count = np.bincount(E.ravel(), minlength=n)
-    return total / np.maximum(count, 1)
 
 
 # --------------------------------------------------------------------------- fill
@@ -585,13 +582,14 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
 
     faces = np.asarray(faces, dtype=np.int64)
     n = len(X)
-    before, pinched_before = _measure(faces)
+    found: dict = {}
+    before, pinched_before = _measure(faces, found)
     filled = 0
     if len(faces):
         h = knn_spacing(X) if spacing is None else np.asarray(spacing, dtype=np.float64)
         width = enclosing_radius(X, faces) / np.maximum(h[faces].mean(axis=1), 1e-300)
         bound = HOLE_MARGIN * widest_empty(width)
-        loops = simple_loops(faces)
+        loops = simple_loops(faces, found.get("twin"))
         if _has_long_loop(X, loops, h, GROW_LOOP * bound):
             # A loop longer than any hole the sampling leaves: an open surface. The holes
             # the sampling leaves are filled where a flat fill closes them (a fold costs its
@@ -683,9 +681,7 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
     del U
 
     meshed = np.flatnonzero(np.bincount(faces.ravel(), minlength=n) > 0)
-    mesh_tree = cKDTree(X[meshed])
-    if empty is not None:
-        cloud = cKDTree(X if exclude is None else X[~np.asarray(exclude, dtype=bool)])
+    trees: dict = {}  # built when first needed
 
     def narrow(F: np.ndarray) -> bool:
         radius = enclosing_radius(X, F)
@@ -694,13 +690,18 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
         if empty is not None:
             from .fills import _empty_radius
 
-            gap = _empty_radius(X, F, cloud) / np.maximum(h[F].mean(axis=1), 1e-300)
+            if "cloud" not in trees:
+                trees["cloud"] = cKDTree(X if exclude is None
+                                         else X[~np.asarray(exclude, dtype=bool)])
+            gap = _empty_radius(X, F, trees["cloud"]) / np.maximum(h[F].mean(axis=1), 1e-300)
             if float(gap.max()) > empty * bound:
                 return False
         # A fill over meshed points is a second sheet over the surface (a cap over a small
         # patch's rim), not a hole's: a few meshed points near its triangles at most (where
         # the mesh overlaps itself round a small hole), not a patch of them.
-        near = mesh_tree.query_ball_point(X[F].mean(axis=1), 0.5 * radius)
+        if "mesh" not in trees:
+            trees["mesh"] = cKDTree(X[meshed])
+        near = trees["mesh"].query_ball_point(X[F].mean(axis=1), 0.5 * radius)
         under = set().union(*(meshed[k].tolist() for k in near)) - set(F.ravel().tolist())
         return len(under) <= max(2, len(np.unique(F)) // 4)
 
@@ -742,11 +743,17 @@ def _add_fills(faces: np.ndarray, fills: list[np.ndarray]) -> tuple[np.ndarray, 
     """``faces`` with the fills whose directed edges are taken by no triangle before them
     (the mesh's, then the earlier fills'); how many fills were added."""
     n = int(max(faces.max(), max(F.max() for F in fills))) + 1
-    taken = set((lambda D: (D[:, 0] * n + D[:, 1]).tolist())(_directed(faces)))
+    D = _directed(faces)
+    mesh_keys = np.sort(D[:, 0] * n + D[:, 1])
+    taken: set = set()  # the earlier fills'
     kept = []
     for F in fills:
         D = _directed(F)
-        keys = (D[:, 0] * n + D[:, 1]).tolist()
+        keys = D[:, 0] * n + D[:, 1]
+        at = np.minimum(np.searchsorted(mesh_keys, keys), len(mesh_keys) - 1)
+        if (mesh_keys[at] == keys).any():
+            continue
+        keys = keys.tolist()
         if taken.isdisjoint(keys) and len(set(keys)) == len(keys):
             taken.update(keys)
             kept.append(F)
