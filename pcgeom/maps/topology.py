@@ -372,6 +372,9 @@ def fill_loop(X: np.ndarray, normals: np.ndarray, loop: np.ndarray, inner: np.nd
         F = loop[None, [0, 2, 1]]
         face = cross3(X[F[0, 1]] - X[F[0, 0]], X[F[0, 2]] - X[F[0, 0]])
         return F if folds or face @ normals[loop].sum(axis=0) > 0 else None
+    if not len(inner) and loop_alone and not folds and len(loop) <= 8:  # a short loop alone:
+        if _least_area_fill(X, normals, loop, edges) is None:  # its least-area fill folds or
+            return None  # needs an edge the mesh has, so does every fill (the planar one too)
     frame = _plane(X, normals, loop)
     centre = X[loop].mean(axis=0)
     Q = (X[loop] - centre) @ frame[:2].T
@@ -743,8 +746,7 @@ def _add_fills(faces: np.ndarray, fills: list[np.ndarray]) -> tuple[np.ndarray, 
     """``faces`` with the fills whose directed edges are taken by no triangle before them
     (the mesh's, then the earlier fills'); how many fills were added."""
     n = int(max(faces.max(), max(F.max() for F in fills))) + 1
-    D = _directed(faces)
-    mesh_keys = np.sort(D[:, 0] * n + D[:, 1])
+    mesh_keys = np.sort((lambda D: D[:, 0] * n + D[:, 1])(_directed(faces)))
     taken: set = set()  # the earlier fills'
     kept = []
     for F in fills:
