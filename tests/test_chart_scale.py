@@ -78,3 +78,21 @@ def test_onto_outline_makes_a_crossing_boundary_simple():
     X = onto_outline(P, F, U)
     assert X is not None
     assert (signed_areas(X, F) > 0).all() and boundary_simple(X, F)
+
+
+def test_accelerated_rounds_reach_the_plain_fixed_point(monkeypatch):
+    """Anderson's acceleration (``ANDERSON``) changes how the rounds get there, not where:
+    on the cap (bound 3), 30 accelerated rounds end within 5% of the conformal distortion
+    and 1% of the spread of 100 plain ones (measured 1.66x and 1.63x LSCM's, 3.004 and
+    3.025), with no fold."""
+    import pcgeom.maps.chart_scale as cs
+
+    P, F = _cap()
+    U, _ = chart_map(P, F)
+    W = bound_scale(P, F, U, 3.0, unfold=False)
+    monkeypatch.setattr(cs, "ANDERSON", 0)
+    X = bound_scale(P, F, U, 3.0, rounds=100, unfold=False)
+    assert (signed_areas(W, F) > 0).all()
+    dw, dx = conformal_distortion(P, W, F), conformal_distortion(P, X, F)
+    assert abs(dw - dx) < 0.05 * dx
+    assert abs(spread(P, W, F) - spread(P, X, F)) < 0.01 * spread(P, X, F)
