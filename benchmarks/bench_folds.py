@@ -94,6 +94,15 @@ def rows_of(gap: float, seeds, work: Path, kind: str = "pleat") -> tuple[list[di
     rows.append(H.summary(runs, case=name, points=len(V), input="bare",
                           method="`fast`, standing triangles kept (facing 0: before issue 39's "
                                  "upright mesh; in process)"))
+    unvoted = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh,
+                                                                       vote=False))
+    runs = []
+    for seed in seeds:
+        result, seconds = H.timed(pcgeom.parametrize, V, config=unvoted, seed=seed,
+                                  progress=False)
+        runs.append({"seed": seed, "wall_s": seconds, **H.score_map(result.uv, V, F)})
+    rows.append(H.summary(runs, case=name, points=len(V), input="bare",
+                          method="`fast` without the vote (`vote` False: before; in process)"))
     rows.append(H.summary([H.reference(lscm, V, F)], case=name, points=len(V),
                           input="true mesh", method="libigl LSCM", normals="-"))
     # The exact map (arc length across the folds, height along them), judged like the others:
@@ -154,7 +163,7 @@ def verdicts(rows, boundaries) -> list[str]:
     return lines
 
 
-def render(rows, boundaries, argv, rules=()) -> str:
+def render(rows, boundaries, argv, rules=(), votes=()) -> str:
     import os
     import platform
 
@@ -179,7 +188,8 @@ def render(rows, boundaries, argv, rules=()) -> str:
         "it, under 0.3% flipped, at 1.5 spacings and wider); the same sheet sampled uniformly at "
         "random (`sampling=\"uniform\"`) too. The row \"standing triangles kept\" is `fast` "
         "with `LocalMeshConfig.facing = 0`, the build before issue 39's upright mesh, run in "
-        "this process side by side.", "",
+        "this process side by side; the row \"without the vote\" is `fast` with "
+        "`LocalMeshConfig.vote = False`, the build before the voted normals.", "",
         *H.table([("case", "{case}"), ("input", "{input}"), ("method", "{method}"),
                   ("runs", "{runs}"),
                   ("mean abs angle, rad", lambda r: _cell(r, "rad", ".4f")),
@@ -196,13 +206,21 @@ def render(rows, boundaries, argv, rules=()) -> str:
         "Targets (issue 25: within 2x LSCM on the true mesh, < 0.3% flipped; one loop, "
         "precision and recall >= 0.95; issue 39 for the deep folds):", "",
         *verdicts(rows, boundaries), "",
+        *(["### The voted normals side by side (`benchmarks/folds_rules.py`, `vote_rows`)", "",
+           "Bare, in this process (`pcgeom.parametrize`, seed 0): `fast` with "
+           "`LocalMeshConfig.vote = False` (before) and `fast` (now), one after the other on "
+           "each surface; the grooves and pleats (6000 points) for each cloud seed listed, the "
+           "shared surfaces free and onto the disk. Angle distortion and flips on the true "
+           "triangles; wall seconds on a shared machine.", "",
+           *folds_rules.render_vote(votes), ""] if votes else []),
         *(["### The normal estimate's rules side by side (`benchmarks/folds_rules.py`)", "",
            "Bare, `fast`, in this process (`pcgeom.parametrize`, seed 0), each rule put in "
            "place for the run: the normal scale (`pcgeom.neighbours.adaptive_pca`'s `rule`; "
            "the first row with one scale of 16 neighbours) and whether the noise estimate "
            "that decides the `auto` denoise fits each point's own sheet only "
            "(`pcgeom.neighbours.own_sheet`). Rows 2 and 3 are the build before and after "
-           "issue 39. Deep folds and pleats of 6000 points, seeds as listed.", "",
+           "issue 39 (every row with the vote, `LocalMeshConfig.vote`, on). Deep folds and pleats "
+           "of 6000 points, seeds as listed.", "",
            *folds_rules.render(rules)] if rules else [])])
 
 
@@ -213,6 +231,8 @@ def main(argv=None) -> int:
     p.add_argument("--deep-gaps", nargs="*", type=float, default=list(DEEP_GAPS))
     p.add_argument("--rule-seeds", nargs="*", type=int, default=[0],
                    help="seeds of the rules' table (none: no table)")
+    p.add_argument("--vote-seeds", nargs="*", type=int, default=[0, 1],
+                   help="cloud seeds of the vote's table (none: no table)")
     args = p.parse_args(argv)
     rows, boundaries = [], []
     with tempfile.TemporaryDirectory() as tmp:
@@ -223,7 +243,8 @@ def main(argv=None) -> int:
                 rows += r
                 boundaries.append(b)
     rules = folds_rules.measure(POINTS, args.rule_seeds) if args.rule_seeds else []
-    H.write_section(args.out, "bench_folds", render(rows, boundaries, argv, rules))
+    votes = folds_rules.vote_rows(POINTS, args.vote_seeds) if args.vote_seeds else []
+    H.write_section(args.out, "bench_folds", render(rows, boundaries, argv, rules, votes))
     return 0
 
 

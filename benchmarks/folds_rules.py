@@ -107,6 +107,77 @@ def measure(points: int = 6000, seeds=(0,)) -> list[dict]:
     return sorted(rows, key=lambda r: order.index(r["case"]))
 
 
+VOTE_CASES = (("deep", "even", 1.5), ("deep", "even", 2.0), ("deep", "even", 3.0),
+              ("deep", "uniform", 1.5), ("deep", "uniform", 2.0), ("deep", "uniform", 3.0),
+              ("pleat", "", 1.5), ("pleat", "", 2.0), ("pleat", "", 2.5))
+"""(kind, sampling, gap) of the synthetic surfaces of :func:`vote_rows`."""
+
+
+def vote_surfaces(points: int, seeds):
+    """(case, V, F, domains) of :func:`vote_rows`: the grooves and pleats (clouds of each
+    seed, free map) and the shared surfaces (free and onto the disk)."""
+    from pcgeom.synthetic import pleated_sheet
+    from pcgeom.synthetic_folds import deep_folds
+
+    for kind, sampling, gap in VOTE_CASES:
+        for seed in seeds:
+            if kind == "deep":
+                s = deep_folds(points, gap=gap, sampling=sampling, seed=seed)
+                name = f"deep folds{' (uniform)' if sampling == 'uniform' else ''}, walls {gap:g}"
+            else:
+                s = pleated_sheet(points, folds=4, gap=gap, seed=seed)
+                name = f"pleat, sheets {gap:g} apart"
+            yield f"{name}, cloud seed {seed}", s.points, s.faces, ("free",)
+    for name in SHARED:
+        if H.available(name):
+            s = H.load_surface(name)
+            yield name, s.V, s.F, ("free", "disk")
+
+
+def vote_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
+    """Each surface mapped bare with ``fast`` and with ``fast`` less the vote
+    (``LocalMeshConfig.vote = False``), one after the other in this process: angle, flips and
+    wall seconds of each, and whether the voted mesh was kept."""
+    import pcgeom
+
+    fast = pcgeom.get_preset("fast")
+    off = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh,
+                                                                   vote=False))
+    rows = []
+    for case, V, F, domains in vote_surfaces(points, seeds):
+        for domain in domains:
+            row = {"case": case, "domain": domain}
+            for key, config in (("off", off), ("on", fast)):
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    result, seconds = H.timed(pcgeom.parametrize, V, domain, config=config,
+                                              seed=0, progress=False)
+                row[key] = {"wall_s": seconds, **H.score_map(result.uv, V, F)}
+                record = next((r for r in result.history if "voted" in r), {})
+                row[key]["kept"] = record.get("voted_kept", False)
+            H.log(f"{case} {domain}: vote off {row['off']['rad']:.4f}, on {row['on']['rad']:.4f}")
+            rows.append(row)
+    return rows
+
+
+def render_vote(rows) -> list[str]:
+    def cell(key, field, fmt):
+        return lambda r: format(r[key][field], fmt)
+
+    return H.table([("surface", "{case}"), ("map", "{domain}"),
+                    ("angle, vote off", cell("off", "rad", ".4f")),
+                    ("angle, vote on", cell("on", "rad", ".4f")),
+                    ("flipped off", lambda r: _flips(r["off"])),
+                    ("flipped on", lambda r: _flips(r["on"])),
+                    ("voted mesh kept", lambda r: "yes" if r["on"]["kept"] else "no"),
+                    ("wall s off / on", lambda r: f"{r['off']['wall_s']:.1f} / "
+                                                  f"{r['on']['wall_s']:.1f}")], rows)
+
+
+def _flips(run: dict) -> str:
+    return f"{run['flipped']} ({run['flip_pct']:.2f}%)"
+
+
 def _cell(row, key, fmt):
     if row.get("n_ok") == 0:
         return "failed: " + row["errors"][0][1][:40]
