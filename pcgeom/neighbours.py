@@ -487,31 +487,35 @@ def voted_normals(X, normals, *, knn: Neighbours | None = None, chunk: int = 50_
     out, moved = given.copy(), np.zeros(len(X), dtype=bool)
     a, b = np.triu_indices(m, 1)
     for s in range(0, len(X), chunk):
-        P = X[nb[s:s + chunk, 1:]] - X[s:s + chunk, None, :]  # (n, k, 3) about the point
+        rows = np.arange(s, min(s + chunk, len(X)))
+        P = X[nb[rows, 1:]] - X[rows, None, :]  # (n, k, 3) about the point
         local = np.maximum(np.linalg.norm(P[:, :6], axis=-1).mean(axis=1), 1e-300)
+        band = VOTE_BAND * local[:, None]
+        before = (np.abs(np.einsum("nd,nkd->nk", given[rows], P)) < band).sum(axis=1)
+        # Only a point whose plane leaves out VOTE_MARGIN neighbours or more can be outvoted.
+        open_ = before + VOTE_MARGIN <= k
+        rows, P, local, band, before = (rows[open_], P[open_], local[open_], band[open_],
+                                        before[open_])
         N = np.cross(P[:, a], P[:, b])  # (n, pairs, 3): the planes through two neighbours
         length = np.linalg.norm(N, axis=-1)
         spread = length > 0.3 * np.linalg.norm(P[:, a], axis=-1) * np.linalg.norm(P[:, b],
                                                                                    axis=-1)
         N = N / np.maximum(length, 1e-300)[..., None]
-        near = np.abs(np.einsum("npd,nkd->npk", N, P)) < VOTE_BAND * local[:, None, None]
+        near = np.abs(np.einsum("npd,nkd->npk", N, P)) < band[:, :, None]
         votes = np.where(spread, near.sum(axis=-1), -1)
-        rows = np.arange(len(P))
-        best = near[rows, np.argmax(votes, axis=1)]  # (n, k): the best plane's voters
+        best = near[np.arange(len(P)), np.argmax(votes, axis=1)]  # the best plane's voters
         Q = np.concatenate([np.zeros((len(P), 1, 3)), P], axis=1)
         W = np.concatenate([np.ones((len(P), 1)), best], axis=1)[..., None]
         R = Q - (W * Q).sum(axis=1, keepdims=True) / W.sum(axis=1, keepdims=True)
         n = np.linalg.eigh(np.einsum("nki,nkj->nij", W * R, R))[1][..., 0]
-        band = VOTE_BAND * local[:, None]
         voters = np.abs(np.einsum("nd,nkd->nk", n, P)) < band
-        before = (np.abs(np.einsum("nd,nkd->nk", given[s:s + chunk], P)) < band).sum(axis=1)
         offset = np.sort(np.einsum("nd,nkd->nk", n, P), axis=1)
-        two = np.diff(offset, axis=1).max(axis=1) > SHEET_GAP * local  # a facing sheet
+        two = np.diff(offset, axis=1).max(axis=1, initial=0.0) > SHEET_GAP * local
         ok = (two & (voters.sum(axis=1) >= before + VOTE_MARGIN)
               & (_widest_wedge(P, n, voters) < VOTE_WEDGE))
-        side = np.where(np.einsum("nd,nd->n", n, given[s:s + chunk]) < 0, -1.0, 1.0)
-        out[s:s + chunk][ok] = (n * side[:, None])[ok]
-        moved[s:s + chunk] = ok
+        side = np.where(np.einsum("nd,nd->n", n, given[rows]) < 0, -1.0, 1.0)
+        out[rows[ok]] = (n * side[:, None])[ok]
+        moved[rows[ok]] = True
     return out, moved
 
 
