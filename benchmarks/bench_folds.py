@@ -75,7 +75,7 @@ def rows_of(gap: float, seeds, work: Path, kind: str = "pleat") -> tuple[list[di
                               method="pcgeom `fast`"))
     fast = pcgeom.get_preset("fast")
     before = dataclasses.replace(fast, local_mesh=dataclasses.replace(
-        fast.local_mesh, normal_scales=(16,), normal_rounds=0))
+        fast.local_mesh, normal_scales=(16,), normal_rounds=0, vote=False))
     try:
         result, seconds = H.timed(pcgeom.parametrize, V, config=before, seed=seeds[0],
                                   progress=False)
@@ -85,7 +85,7 @@ def rows_of(gap: float, seeds, work: Path, kind: str = "pleat") -> tuple[list[di
     rows.append(H.summary([run], case=name, points=len(V), input="bare",
                           method="16-neighbour normals (before; in process)"))
     upright = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh,
-                                                                       facing=0.0))
+                                                                       facing=0.0, vote=False))
     runs = []
     for seed in seeds:  # the same seeds as the CLI's rows: side by side
         result, seconds = H.timed(pcgeom.parametrize, V, config=upright, seed=seed,
@@ -179,7 +179,7 @@ def render(rows, boundaries, argv, rules=(), votes=()) -> str:
         "fitted to those very triangles): a map of the surface cannot be expected below the "
         "exact map's figure. `fast` by the CLI (medians "
         "over the seeds; the bare file is `x y z`, the other carries the true normals); the "
-        "normal estimate of before (16 neighbours for every point) in this process. Angle "
+        "normal estimate of before (16 neighbours for every point, no vote) in this process. Angle "
         "distortion and flips on the true triangles.", "",
         f"`pcgeom.synthetic_folds.deep_folds({POINTS}, gap=G)`: a sheet with three grooves "
         "3, 6 and 10 spacings deep, each a lip (quarter circle of radius 1 spacing), a wall, "
@@ -187,8 +187,8 @@ def render(rows, boundaries, argv, rules=(), votes=()) -> str:
         "developable too, judged the same way against its exact map (issue 39: within 2x of "
         "it, under 0.3% flipped, at 1.5 spacings and wider); the same sheet sampled uniformly at "
         "random (`sampling=\"uniform\"`) too. The row \"standing triangles kept\" is `fast` "
-        "with `LocalMeshConfig.facing = 0`, the build before issue 39's upright mesh, run in "
-        "this process side by side; the row \"without the vote\" is `fast` with "
+        "with `LocalMeshConfig.facing = 0` and `vote = False`, the build before issue 39's "
+        "upright mesh, run in this process side by side; the row \"without the vote\" is `fast` with "
         "`LocalMeshConfig.vote = False`, the build before the voted normals.", "",
         *H.table([("case", "{case}"), ("input", "{input}"), ("method", "{method}"),
                   ("runs", "{runs}"),
