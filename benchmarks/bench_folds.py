@@ -179,7 +179,8 @@ def render(rows, boundaries, argv, rules=(), votes=()) -> str:
         "fitted to those very triangles): a map of the surface cannot be expected below the "
         "exact map's figure. `fast` by the CLI (medians "
         "over the seeds; the bare file is `x y z`, the other carries the true normals); the "
-        "normal estimate of before (16 neighbours for every point, no vote) in this process. Angle "
+        "normal estimate of before (16 neighbours for every point, no vote) in this process. "
+        "Angle "
         "distortion and flips on the true triangles.", "",
         f"`pcgeom.synthetic_folds.deep_folds({POINTS}, gap=G)`: a sheet with three grooves "
         "3, 6 and 10 spacings deep, each a lip (quarter circle of radius 1 spacing), a wall, "
@@ -188,8 +189,8 @@ def render(rows, boundaries, argv, rules=(), votes=()) -> str:
         "it, under 0.3% flipped, at 1.5 spacings and wider); the same sheet sampled uniformly at "
         "random (`sampling=\"uniform\"`) too. The row \"standing triangles kept\" is `fast` "
         "with `LocalMeshConfig.facing = 0` and `vote = False`, the build before issue 39's "
-        "upright mesh, run in this process side by side; the row \"without the vote\" is `fast` with "
-        "`LocalMeshConfig.vote = False`, the build before the voted normals.", "",
+        "upright mesh, run in this process side by side; the row \"without the vote\" is "
+        "`fast` with `LocalMeshConfig.vote = False`, the build before the voted normals.", "",
         *H.table([("case", "{case}"), ("input", "{input}"), ("method", "{method}"),
                   ("runs", "{runs}"),
                   ("mean abs angle, rad", lambda r: _cell(r, "rad", ".4f")),
