@@ -294,6 +294,39 @@ def test_planar_mesh_fills_the_loop_and_nothing_outside_it():
     assert _planar_mesh(line, np.array([0, 1, 2])).shape == (0, 3)
 
 
+def test_disk_map_turns_no_true_rim_sliver_over(monkeypatch):
+    """A sheet whose bottom side has every other rim point 0.35 spacings inside (true
+    triangles of 141 degrees at it, as peaks_three_cgal's): the planar mesh peels those
+    slivers, and with their apexes on the circle between their neighbours all 15 turned over.
+    Released into the disk (``disk._release``), none does; the rest of the rim stays on it."""
+    from scipy.spatial import Delaunay
+
+    import pcgeom.maps.disk as disk
+    from pcgeom.mesh import signed_areas
+
+    n = 30
+    x, y = np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0))
+    P = np.column_stack([x.ravel(), y.ravel()])
+    P = P[(P[:, 1] > 0) | (P[:, 0] % 2 == 0)]  # the bottom row: every other point
+    apexes = np.arange(len(P), len(P) + n // 2)
+    P = np.vstack([P, np.column_stack([np.arange(1.0, n, 2), np.full(n // 2, 0.35)])])
+    inner = (P[:, 1] > 0.5) & (P[:, 1] < n) & (P[:, 0] > 0) & (P[:, 0] < n)
+    P[inner] += 0.05 * np.random.default_rng(0).standard_normal((int(inner.sum()), 2))
+    F = Delaunay(P).simplices
+    F[signed_areas(P, F) < 0] = F[signed_areas(P, F) < 0][:, [0, 2, 1]]
+    X = np.column_stack([P, 0.02 * ((P - n / 2) ** 2).sum(axis=1) / n]) / n  # a shallow bowl
+
+    uv = parametrize(X, "disk", progress=False).uv
+    radius = np.linalg.norm(uv, axis=1)
+    assert (signed_areas(uv, F) > 0).all()
+    assert (radius[apexes] < 1.0 - 1e-3).all()  # measured 0.987 to 0.990
+    bottom = np.flatnonzero((P[:, 1] == 0) & (P[:, 0] > 0) & (P[:, 0] < n))
+    np.testing.assert_allclose(radius[bottom], 1.0, atol=1e-9)
+    monkeypatch.setattr(disk, "_release", lambda V, F, slivers, D: D)
+    uv = parametrize(X, "disk", progress=False).uv
+    assert (signed_areas(uv, F) < 0).sum() >= 10  # measured 15, all three corners on the circle
+
+
 def test_merge_keeps_what_a_sequential_greedy_pass_keeps():
     from pcgeom.maps.localmesh import _fans, _greedy_claims, _merge
 
