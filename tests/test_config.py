@@ -311,7 +311,7 @@ def test_barrier_settings_ride_in_param_config_and_old_dicts_take_the_defaults()
     assert loaded == get_preset("fast")
     assert loaded.injective == InjectiveConfig()
     assert loaded.injective_landmarks == InjectiveConfig(
-        untangle=UntangleConfig(local=3),
+        rim_angle=150.0, untangle=UntangleConfig(local=3),
         barrier=BarrierConfig(landmarks=1e4, cover=0.0, tolerance=1e-4,
                               refactor=2))
     part = ParamConfig.from_dict({"injective": {"barrier": {"iterations": 10}}})
