@@ -96,3 +96,21 @@ def test_accelerated_rounds_reach_the_plain_fixed_point(monkeypatch):
     dw, dx = conformal_distortion(P, W, F), conformal_distortion(P, X, F)
     assert abs(dw - dx) < 0.05 * dx
     assert abs(spread(P, W, F) - spread(P, X, F)) < 0.01 * spread(P, X, F)
+
+
+def test_unfold_lobes_makes_the_crossing_simple_on_a_patch():
+    """Prongs 8 cells wide turned 5 degrees: their tips cross (1.2e-3 of the area covered
+    twice, two crossings). On a patch of 2 rings around the lobes, the barrier map onto the
+    outline leaves no fold and a simple boundary, and the triangles off the patch where they
+    were; a map whose boundary does not cross gets None."""
+    from pcgeom.maps.atlas import overlap_area
+    from pcgeom.maps.chart_lobes import unfold_lobes
+
+    P, F, U = _prongs(8, 5.0)
+    assert (signed_areas(U, F) > 0).all() and not boundary_simple(U, F)
+    assert 1e-3 < overlap_area(U, F) < 2e-3
+    X = unfold_lobes(P, F, U, rings=2)
+    assert X is not None
+    assert (signed_areas(X, F) > 0).all() and boundary_simple(X, F)
+    assert 0 < (np.abs(X - U).max(axis=1) > 0).sum() < len(P)
+    assert unfold_lobes(*_prongs(8, 3.0)) is None

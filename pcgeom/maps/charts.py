@@ -16,8 +16,10 @@ takes the whole mesh as one piece and, recursively:
    bound, with no flip, at little cost in angle: no seam added). A chart whose boundary
    crosses itself in small lobes (at most :data:`PINCH` of its area) is made one-to-one onto
    the outline of what it covers (:func:`pcgeom.maps.chart_scale.onto_outline`, the barrier
-   map), kept when that is within the bound at little cost in angle. One still over the
-   bound gets a **slit** (up to :data:`SLITS` per chart): a seam along the
+   map), kept when that is within the bound at little cost in angle; one whose lobes cover
+   more (at most :data:`LOBES`), or that the outline leaves crossing, is made one-to-one on
+   a patch around its lobes only (:func:`_lobes`, :mod:`pcgeom.maps.chart_lobes`). One
+   still over the bound gets a **slit** (up to :data:`SLITS` per chart): a seam along the
    shortest path from its boundary to the vertex whose scale factor is farthest from the
    median (in log: the tip of a finger the conformal map shrinks), then is mapped again (the
    cone-and-cut idea of OptCuts and Boundary First Flattening, with the cut ending at the
@@ -48,7 +50,7 @@ from .seams import cut_graph, cut_open
 
 __all__ = ["Piece", "Chart", "fit_charts", "pack_charts", "spread", "charts_overlap",
            "SLITS", "DEPTH", "TOUCH", "PADDING", "RESOLUTION", "PINCH",
-           "OUTLINE_TRIES"]
+           "OUTLINE_TRIES", "LOBES", "LOBE_COST"]
 
 SLITS = 6
 """Slits a chart over the bound gets before it is split instead."""
@@ -78,10 +80,23 @@ conformal map pinches where it shrinks most: 1.7e-4 to 8.8e-4 on the pretzels of
 is made one-to-one without a seam (:func:`_outline`); more (the finger's 4e-3 and 1.7e-2)
 is split."""
 
+LOBES = 3e-3
+"""A chart whose boundary crosses itself over at most this share of its area, and that
+:func:`_outline` leaves crossing (or does not try: over :data:`PINCH`), is made one-to-one
+around its lobes only (:func:`_lobes`): the genus-4 pretzel's one chart at 50k points,
+1.7e-3. More is split."""
+
+LOBE_COST = 1.35
+""":func:`_lobes`'s result is kept when its mean conformal distortion is at most this many
+times LSCM's (issue 38 allows 1.5x libigl's LSCM on the same seams). Squeezing a lobe into
+the outline costs angle where the chart shrinks most: genus-4 pretzel 50k, its one chart,
+1.08x (the bounded map) -> 1.33x; the split it saves added 0.57 sqrt(A) of seam."""
+
 OUTLINE_TRIES = 3
 """Charts of one atlas that :func:`_outline` tries (a barrier map each, 1-9 s at 5k-20k
 points); the later ones are split as before. The pretzels need one; face_human_choi, whose
-repaired local mesh keeps false holes and handles, tried 21 (none kept) in 49 of its 69 s."""
+repaired local mesh keeps false holes and handles, tried 21 (none kept) in 49 of its 69 s.
+:func:`_lobes` has as many tries of its own."""
 
 RESOLUTION = 1024
 """The side, in texels, of the atlas xatlas packs."""
@@ -302,16 +317,20 @@ def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
 
 
 def _map(V: np.ndarray, piece: Piece, slits: int, bound: float = np.inf, *,
-         outline: bool = False) -> Chart:
+         outline: bool = False, lobes: bool = False) -> Chart:
     from .atlas import boundary_simple, chart_map, overlap_area
 
     P, F = V[piece.origin], piece.F
     U, info = chart_map(P, F)
-    U, info, start = _bounded(P, F, U, dict(info, bounded=False, outline=False), bound)
+    U, info, start = _bounded(P, F, U, dict(info, bounded=False, outline=False, lobes=False),
+                              bound)
     simple = bool(boundary_simple(U, F))
-    info["outline_tried"] = False
-    if outline and not simple and not info["flips"] and overlap_area(U, F) <= PINCH:
+    info["outline_tried"] = info["lobes_tried"] = False
+    crossed = 0.0 if simple or info["flips"] else overlap_area(U, F)
+    if outline and not simple and not info["flips"] and crossed <= PINCH:
         U, info, simple = _outline(P, F, U, start, info, bound)
+    if lobes and not simple and not info["flips"] and crossed <= LOBES:
+        U, info, simple = _lobes(P, F, U, info, bound)
     # A seam whose two sides the map keeps together (a slit across a smooth part, a path to
     # a small hole) touches itself: its sides may cross by rounding, no more.
     covered = 0.0 if simple else overlap_area(U, F)
@@ -371,6 +390,32 @@ def _outline(P: np.ndarray, F: np.ndarray, U: np.ndarray, start: np.ndarray, inf
             spread(P, X, F) > bound:
         return U, info, False
     return X, dict(info, outline=True, bounded=info["bounded"] or start is not U), True
+
+
+def _lobes(P: np.ndarray, F: np.ndarray, U: np.ndarray, info: dict, bound: float
+           ) -> tuple[np.ndarray, dict, bool]:
+    """A chart whose boundary crosses itself made one-to-one around its lobes only
+    (:func:`pcgeom.maps.chart_lobes.unfold_lobes`: the barrier map onto the outline on a
+    patch around them, of each size of :data:`pcgeom.maps.chart_lobes.LOBE_RINGS` in turn),
+    the first kept when it has no flip, a simple boundary, a spread within
+    ``bound`` and a conformal distortion at most :data:`LOBE_COST` times LSCM's; else ``U``
+    as it was. Returns the map, its info (``lobes``: kept) and whether its boundary is
+    simple."""
+    from .atlas import boundary_simple
+    from .chart_lobes import LOBE_RINGS, unfold_lobes
+    from .chart_scale import conformal_distortion
+
+    if spread(P, U, F) > bound:  # the patch keeps the chart's scale: it would stay over
+        return U, info, False
+    info = dict(info, lobes_tried=True)
+    for rings in LOBE_RINGS:
+        X = unfold_lobes(P, F, U, rings=rings)
+        if X is None or (signed_areas(X, F) <= 0).any() or not boundary_simple(X, F):
+            continue
+        if conformal_distortion(P, X, F) <= LOBE_COST * info["conformal"] and \
+                spread(P, X, F) <= bound:
+            return X, dict(info, lobes=True), True
+    return U, info, False
 
 
 def _tutte(V: np.ndarray, chart: Chart) -> Chart:
@@ -457,17 +502,20 @@ def _fit(V: np.ndarray, pieces: list[Piece], max_stretch: float, *, roots: int, 
          depth: int) -> tuple[list[Chart], dict]:
     """:func:`fit_charts` with the pieces opened by the cut graph from ``roots`` roots."""
     tally = {"loops": 0, "slits": 0, "splits": 0, "tutte": 0, "short": 0, "bounded": 0,
-             "outlines": 0, "outline_tries": 0}
+             "outlines": 0, "outline_tries": 0, "lobes": 0, "lobe_tries": 0}
     out: list[Chart] = []
     # (piece, splits above it, slits in it, the chart before its last slit)
     work = [(p, 0, 0, None) for p in pieces]
     while work:
         piece, level, cuts, before = work.pop()
         chart = _map(V, _disk(V, piece, roots, tally), cuts, max_stretch,
-                     outline=tally["outline_tries"] < OUTLINE_TRIES)
+                     outline=tally["outline_tries"] < OUTLINE_TRIES,
+                     lobes=tally["lobe_tries"] < OUTLINE_TRIES)
         tally["outline_tries"] += chart.info["outline_tried"]
+        tally["lobe_tries"] += chart.info["lobes_tried"]
         tally["bounded"] += chart.info["bounded"]
         tally["outlines"] += chart.info["outline"]
+        tally["lobes"] += chart.info["lobes"]
         ok = chart.info["ok"]
         if before is not None and ok and chart.info["spread"] * SLIT_GAIN \
                 > before.info["spread"]:
