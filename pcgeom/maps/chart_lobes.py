@@ -38,7 +38,8 @@ __all__ = ["unfold_lobes", "crossings", "LOBE_RINGS", "LOBE_STEPS"]
 
 LOBE_RINGS = (12, 20)
 """Rings of triangles around a lobe's triangles that the patch adds, tried in turn by the
-caller (:func:`pcgeom.maps.charts._lobes`). The barrier ends in a different local minimum
+caller (:func:`pcgeom.maps.charts._lobes`) while the last one is one-to-one but costs too
+much angle. The barrier ends in a different local minimum
 for each: genus-4 pretzel 50k, 8 / 12 / 16 / 20 / 24 rings: 1.41 / 1.32 / 1.43 / 1.29 /
 1.39 times LSCM's conformal distortion (the bounded map before it: 1.08), 6-10 s each;
 every one no flip and a simple boundary."""

@@ -326,14 +326,21 @@ def _map(V: np.ndarray, piece: Piece, slits: int, bound: float = np.inf, *,
                               bound)
     simple = bool(boundary_simple(U, F))
     info["outline_tried"] = info["lobes_tried"] = False
-    crossed = 0.0 if simple or info["flips"] else overlap_area(U, F)
-    if outline and not simple and not info["flips"] and crossed <= PINCH:
-        U, info, simple = _outline(P, F, U, start, info, bound)
-    if lobes and not simple and not info["flips"] and crossed <= LOBES:
-        U, info, simple = _lobes(P, F, U, info, bound)
+    crossed = None  # the share covered twice, measured once where it is needed
+    if (outline or lobes) and not simple and not info["flips"]:
+        crossed = overlap_area(U, F)
+        if outline and crossed <= PINCH:
+            U, info, simple = _outline(P, F, U, start, info, bound)
+        if lobes and not simple and crossed <= LOBES:
+            U, info, simple = _lobes(P, F, U, info, bound)
     # A seam whose two sides the map keeps together (a slit across a smooth part, a path to
     # a small hole) touches itself: its sides may cross by rounding, no more.
-    covered = 0.0 if simple else overlap_area(U, F)
+    if simple:
+        covered = 0.0
+    elif crossed is not None and not info["outline"] and not info["lobes"]:
+        covered = crossed  # the map it was measured on
+    else:
+        covered = overlap_area(U, F)
     info = dict(info, simple=simple, overlap_area=covered, slits=slits, spread=spread(P, U, F))
     info["ok"] = info["flips"] == 0 and covered < TOUCH
     return Chart(piece.faces, piece.F, piece.origin, U, info)
@@ -396,11 +403,11 @@ def _lobes(P: np.ndarray, F: np.ndarray, U: np.ndarray, info: dict, bound: float
            ) -> tuple[np.ndarray, dict, bool]:
     """A chart whose boundary crosses itself made one-to-one around its lobes only
     (:func:`pcgeom.maps.chart_lobes.unfold_lobes`: the barrier map onto the outline on a
-    patch around them, of each size of :data:`pcgeom.maps.chart_lobes.LOBE_RINGS` in turn),
-    the first kept when it has no flip, a simple boundary, a spread within
-    ``bound`` and a conformal distortion at most :data:`LOBE_COST` times LSCM's; else ``U``
-    as it was. Returns the map, its info (``lobes``: kept) and whether its boundary is
-    simple."""
+    patch around them, of each size of :data:`pcgeom.maps.chart_lobes.LOBE_RINGS` in turn
+    while the last was one-to-one), the first kept when it has no flip, a simple boundary, a
+    spread within ``bound`` and a conformal distortion at most :data:`LOBE_COST` times
+    LSCM's; else ``U`` as it was. Returns the map, its info (``lobes``: kept) and whether
+    its boundary is simple."""
     from .atlas import boundary_simple
     from .chart_lobes import LOBE_RINGS, unfold_lobes
     from .chart_scale import conformal_distortion
@@ -411,7 +418,9 @@ def _lobes(P: np.ndarray, F: np.ndarray, U: np.ndarray, info: dict, bound: float
     for rings in LOBE_RINGS:
         X = unfold_lobes(P, F, U, rings=rings)
         if X is None or (signed_areas(X, F) <= 0).any() or not boundary_simple(X, F):
-            continue
+            # A larger patch is tried only for a lower angle cost (face_human_choi: three
+            # charts of 9 small crossings each, no patch one-to-one; 13 s for both sizes).
+            break
         if conformal_distortion(P, X, F) <= LOBE_COST * info["conformal"] and \
                 spread(P, X, F) <= bound:
             return X, dict(info, lobes=True), True
