@@ -30,7 +30,8 @@ __all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_i
            "unique_edges", "euler_characteristic", "close_loops", "compact", "mean_edge",
            "edge_sides", "unpaired", "boundary_loops", "main_part", "main_faces", "face_keys",
            "smaller_fans", "one_fan", "successor_walks", "peel_rim", "RIM_ANGLE_DEG", "RIM_ANGLE",
-           "cross3", "twins", "corner_fans", "drop_smaller_fans", "shape_quality"]
+           "cross3", "twins", "corner_fans", "fan_counts", "face_parts", "drop_smaller_fans",
+           "shape_quality"]
 
 RIM_ANGLE_DEG = 120.0
 """A rim triangle whose angle opposite its boundary edge is wider than this (degrees) is a
@@ -419,6 +420,66 @@ def corner_fans(F: np.ndarray, twin: np.ndarray | None = None) -> np.ndarray:
     graph = sp.coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)),
                           shape=(3 * m, 3 * m))
     return connected_components(graph, directed=False)[1]
+
+
+def fan_counts(F: np.ndarray, twin: np.ndarray) -> np.ndarray:
+    """(n,) how many fans each vertex of ``F`` has (``n = F.max() + 1``; 0 where unused): the
+    counts of :func:`corner_fans`' components per vertex, found by walking the fans instead of
+    a graph's components. ``twin``: :func:`twins`' first where its second is True (every
+    edge's halves paired, so each vertex's corners form paths and cycles).
+
+    A corner ``c = slot * M + tri`` leaves its vertex by half-edge ``c``; the next corner
+    round the vertex is the one its twin enters. A fan that is a path starts at a corner whose
+    entering half-edge has no twin (one per open fan); the corners no such walk reaches form
+    the closed fans, one per cycle of that step."""
+    m = len(F)
+    n = int(F.max()) + 1
+    vertex = F.T.ravel()
+    counts = np.zeros(n, dtype=np.int64)
+    seen = np.zeros(3 * m, dtype=bool)
+
+    def step(c: np.ndarray) -> np.ndarray:  # -1 where the corner's leaving edge is open
+        t = twin[c]
+        return np.where(t >= 0, ((t // m + 1) % 3) * m + t % m, -1)
+
+    corner = np.arange(3 * m)
+    entering = ((corner // m + 2) % 3) * m + corner % m
+    cur = corner[twin[entering] < 0]
+    np.add.at(counts, vertex[cur], 1)
+    for _ in range(3 * m + 1):
+        seen[cur] = True
+        cur = step(cur)
+        cur = cur[cur >= 0]
+        if not len(cur):
+            break
+    rest = np.flatnonzero(~seen)  # the closed fans' corners: cycles of ``step``
+    if len(rest):
+        where = np.full(3 * m, -1, dtype=np.int64)
+        where[rest] = np.arange(len(rest))
+        p = where[step(rest)]
+        # Each corner's least index round its cycle (pointer doubling): one per cycle is its
+        # own least.
+        least = np.arange(len(rest))
+        longest, covered = int(np.bincount(vertex[rest]).max()), 1
+        while covered < longest:
+            least = np.minimum(least, least[p])
+            p = p[p]
+            covered *= 2
+        counts += np.bincount(vertex[rest[least == np.arange(len(rest))]], minlength=n)
+    return counts
+
+
+def face_parts(F: np.ndarray, twin: np.ndarray) -> tuple[int, np.ndarray]:
+    """How many parts the faces ``F`` form joined through edges, and each face's part
+    (numbered in order of their first face, as libigl's ``facet_components``). ``twin``:
+    :func:`twins`' first where its second is True (each edge's triangles are its halves')."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(F)
+    k = np.flatnonzero(twin > np.arange(len(twin)))
+    graph = sp.csr_matrix((np.ones(len(k), dtype=np.int8), (k % m, twin[k] % m)), shape=(m, m))
+    return connected_components(graph, directed=False)
 
 
 def drop_smaller_fans(F: np.ndarray, rounds: int = 3) -> np.ndarray:

@@ -169,3 +169,29 @@ def test_the_smaller_fan_of_a_pinched_vertex_goes():
     G = drop_smaller_fans(F)
     assert len(G) == len(F) - 1 and (G == 12).sum() == 3 and measure(G)["pinched"] == 0
     assert np.array_equal(drop_smaller_fans(G), G)
+
+
+def test_the_batched_loop_figures_are_the_loops_own():
+    """The fill pass's figures of all loops at once (:mod:`pcgeom.maps.topology_batch`) are,
+    to the bit, those of one loop at a time: perimeter, median spacing, centre, reach, and
+    whether the least-area fill of a short loop is None (random loops of 4-8 points on a
+    bumpy sheet, some of them across edges of a mesh)."""
+    from pcgeom.maps.topology import _least_area_fill
+    from pcgeom.maps.topology_batch import least_area_folds, loop_figures
+
+    rng = np.random.default_rng(3)
+    X = rng.uniform(0, 10, (300, 3)) * [1, 1, 0.3]
+    normals = rng.normal(0, 0.4, (300, 3)) + [0, 0, 1]
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    h = rng.uniform(0.5, 1.5, 300)
+    loops = [rng.choice(300, k, replace=False) for k in rng.integers(4, 9, 60)]
+    edges = np.unique(np.sort(rng.integers(0, 300, (400, 2)), axis=1) @ [300, 1])
+    perimeter, median, centre, reach = loop_figures(X, h, loops)
+    folds = least_area_folds(X, normals, loops, edges)
+    for q, loop in enumerate(loops):
+        c = X[loop].mean(axis=0)
+        assert perimeter[q] == np.linalg.norm(X[np.roll(loop, -1)] - X[loop], axis=1).sum()
+        assert median[q] == np.median(h[loop]) and np.array_equal(centre[q], c)
+        assert reach[q] == np.linalg.norm(X[loop] - c, axis=1).max()
+        assert folds[q] == (_least_area_fill(X, normals, loop, edges) is None)
+    assert 0 < folds.sum() < len(loops)

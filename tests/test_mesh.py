@@ -81,3 +81,34 @@ def test_peel_rim_drops_the_sliver_over_a_notch():
     # A wider threshold keeps it.
     kept, dropped = peel_rim(V, np.vstack([F, sliver]), math.radians(160.0))
     assert dropped == 0 and len(kept) == len(F) + 1
+
+
+def test_fan_counts_and_parts_as_the_graphs_give_them():
+    """The fans per vertex and the parts found by walking the half-edges' twins
+    (:func:`pcgeom.mesh.fan_counts`, :func:`pcgeom.mesh.face_parts`) are those of the corner
+    graph (:func:`pcgeom.mesh.corner_fans`) and libigl's ``facet_components``: a grid whose
+    centre lost two opposite triangles (two open fans there), a closed octahedron pinched to
+    a second one at a vertex (two closed fans), and a loose triangle."""
+    import igl
+
+    from pcgeom.mesh import corner_fans, face_parts, fan_counts, twins
+
+    _, F = _grid(4)
+    star = np.flatnonzero((F == 12).any(axis=1))
+    grid = np.delete(F, star[[0, 3]], axis=0)
+    octa = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1],
+                     [5, 2, 1], [5, 3, 2], [5, 4, 3], [5, 1, 4]])
+    twice = np.concatenate([octa, np.where(octa == 5, 5, octa + 6)])  # 5 pinched
+    for mesh in (grid, twice, np.concatenate([grid, [[30, 31, 32]]])):
+        twin, consistent = twins(mesh)
+        assert consistent
+        label = corner_fans(mesh, twin)
+        fan_vertex = np.empty(label.max() + 1, dtype=np.int64)
+        fan_vertex[label] = mesh.T.ravel()
+        expected = np.bincount(fan_vertex, minlength=mesh.max() + 1)
+        assert np.array_equal(fan_counts(mesh, twin), expected)
+        count, parts = face_parts(mesh, twin)
+        count0, parts0 = igl.facet_components(np.ascontiguousarray(mesh, dtype=np.int64))
+        assert count == count0 and np.array_equal(parts, parts0)
+    assert fan_counts(twice, twins(twice)[0])[5] == 2
+    assert fan_counts(grid, twins(grid)[0])[12] == 2

@@ -66,7 +66,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh import cross3, half_edges as _directed, successor_walks
+from ..mesh import cross3, half_edges as _directed, successor_walks, twins
 
 __all__ = ["refill_small_loops"]
 
@@ -211,19 +211,25 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
     # changed: no point in its ball re-meshed, and the loops that stopped it the same.
     failed: dict = {}
     touched = None
-    cloud = None  # a cKDTree of the points not excluded, built when first needed
+    trees: dict = {}  # "cloud": a cKDTree of the points not excluded, built when first needed
+
+    def cloud():
+        if "cloud" not in trees:
+            trees["cloud"] = cKDTree(X if exclude is None
+                                     else X[~np.asarray(exclude, dtype=bool)])
+        return trees["cloud"]
+
     for _ in range(REFILL_ROUNDS):
         if not len(faces):
             break
         m = len(faces)
-        H = _directed(faces)  # (3M, 2); the half-edges' order serves their twins too
+        H = _directed(faces)  # (3M, 2)
         hkey = H[:, 0] * n + H[:, 1]
         horder = np.argsort(hkey)
         hsorted = hkey[horder]
-        twin_key = H[:, 1] * n + H[:, 0]
-        at = np.minimum(np.searchsorted(hsorted, twin_key), len(hkey) - 1)
-        rim, walks = rim_walks(faces, np.where(hsorted[at] == twin_key, horder[at], -1))
+        rim, walks = rim_walks(faces, twins(faces)[0])
         perimeter = np.linalg.norm(X[rim[:, 1]] - X[rim[:, 0]], axis=1)
+        spacing = _walk_medians(h[rim[:, 0]], walks)
         walk_keys = [frozenset(rim[w, 0].tolist()) for w in walks]
         walk_id = np.full(len(rim), -1, dtype=np.int64)
         for i, w in enumerate(walks):
@@ -233,7 +239,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         for i, w in enumerate(walks):
             length = float(perimeter[w].sum())
             short = max(REFILL_LOOP * bound, REFILL_SHORT)
-            if length <= 2.0 * np.pi * short * float(np.median(h[rim[w, 0]])):
+            if length <= 2.0 * np.pi * short * float(spacing[i]):
                 if not _unchanged(failed.get(walk_keys[i]), touched, present):
                     small.append((length, w, walk_keys[i]))
         if not small:
@@ -246,7 +252,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         rim_key = rim[:, 0] * n + rim[:, 1]
         rim_order = np.argsort(rim_key)
         corner = faces.T.ravel()  # corner slot * m + tri is faces[tri, slot]
-        corder = np.argsort(corner, kind="stable")
+        corder = np.argsort(corner)  # (tris_at sorts each vertex's triangles)
         cstart = np.searchsorted(corner[corder], np.arange(n + 1))
         used = np.zeros(n, dtype=bool)
         used[faces.ravel()] = True
@@ -254,8 +260,6 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             used |= np.asarray(exclude, dtype=bool)
         free = np.flatnonzero(~used)
         tree = cKDTree(X[free]) if len(free) else None
-        if cloud is None:
-            cloud = cKDTree(X if exclude is None else X[~np.asarray(exclude, dtype=bool)])
         busy = np.zeros(m, dtype=bool)
         fills, added_edges = [], set()
 
@@ -337,7 +341,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             if not _faces_normals(X, normals, F):
                 return None
             width = enclosing_radius(X, F) / np.maximum(h[F].mean(axis=1), 1e-300)
-            empty = _empty_radius(X, F, cloud) / np.maximum(h[F].mean(axis=1), 1e-300)
+            empty = _empty_radius(X, F, cloud()) / np.maximum(h[F].mean(axis=1), 1e-300)
             wide = max(float(width.max()), float(empty.max()))
             if wide > REFILL_WIDTH * bound:
                 return None
@@ -382,7 +386,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             ear, F = got
             if not _faces_normals(X, normals, F):
                 continue
-            width = np.maximum(enclosing_radius(X, F), _empty_radius(X, F, cloud)
+            width = np.maximum(enclosing_radius(X, F), _empty_radius(X, F, cloud())
                                ) / np.maximum(h[F].mean(axis=1), 1e-300)
             E = np.sort(_directed(F), axis=1)
             ek, ec = np.unique(E[:, 0] * n + E[:, 1], return_counts=True)
@@ -410,6 +414,19 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         touched = cKDTree(X[changed])
         faces = np.concatenate([faces[~busy], *fills])
     return faces, closed
+
+
+def _walk_medians(values: np.ndarray, walks: list[np.ndarray]) -> np.ndarray:
+    """``np.median(values[w])`` of each walk ``w`` (index arrays), all at once (the same
+    numbers: the middle value, or the mean of the middle two)."""
+    if not walks:
+        return np.zeros(0)
+    sizes = np.array([len(w) for w in walks], dtype=np.int64)
+    seg = np.repeat(np.arange(len(walks)), sizes)
+    v = values[np.concatenate(walks)]
+    ordered = v[np.lexsort((v, seg))]
+    mid = np.cumsum(sizes) - sizes + sizes // 2
+    return np.where(sizes % 2 == 1, ordered[mid], (ordered[mid - 1] + ordered[mid]) / 2)
 
 
 def _unchanged(seen: tuple | None, touched, present: set) -> bool:

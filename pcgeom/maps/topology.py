@@ -55,9 +55,10 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..mesh import (corner_fans, cross3, drop_smaller_fans, face_keys, half_edges as _directed,
-                    twins)
+from ..mesh import (corner_fans, cross3, drop_smaller_fans, face_keys, fan_counts,
+                    half_edges as _directed, twins)
 from .fills import refill_small_loops
+from .topology_batch import edge_keys, main_faces, sub_twins, triage
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
 
@@ -154,16 +155,6 @@ class Topology:
 # --------------------------------------------------------------------------- measure
 
 
-def _main_faces(faces: np.ndarray) -> tuple[np.ndarray, int]:
-    """The faces of the largest part of ``faces`` joined through edges, and how many parts."""
-    import igl
-
-    if len(faces) == 0:
-        return faces, 0
-    count, label = igl.facet_components(np.ascontiguousarray(faces, dtype=np.int64))
-    return faces[label == np.bincount(label).argmax()], int(count)
-
-
 def measure(faces: np.ndarray) -> dict:
     """:func:`_measure`'s figures of the mesh ``faces``' largest part."""
     return _measure(faces)[0]
@@ -179,17 +170,22 @@ def _measure(faces: np.ndarray, found: dict | None = None) -> tuple[dict, np.nda
     dict
         ``euler``, ``boundary_loops``, ``genus``, ``components``, ``vertices``, ``faces``,
         ``pinched``; and (n,) bool, the pinched vertices. ``found`` (a dict), when given,
-        receives ``twin``: :func:`pcgeom.mesh.twins`' first of ``faces`` (when it is one part).
+        receives ``twin`` and ``consistent``: :func:`pcgeom.mesh.twins` of ``faces``.
     """
-    main, parts = _main_faces(np.asarray(faces, dtype=np.int64))
-    if len(main) == 0:
+    faces = np.asarray(faces, dtype=np.int64)
+    if len(faces) == 0:
         return {"euler": 0, "boundary_loops": 0, "genus": 0, "components": 0, "vertices": 0,
                 "faces": 0, "pinched": 0}, np.zeros(0, dtype=bool)
-    twin, consistent = twins(main)
-    if parts == 1 and found is not None:
-        found["twin"] = twin
+    twin, consistent = twins(faces)
+    if found is not None:
+        found.update(twin=twin, consistent=consistent)
+    main, parts, kept = main_faces(faces, twin if consistent else None)
+    if parts > 1 and consistent:
+        twin = sub_twins(kept, twin)
+    elif parts > 1:
+        twin, consistent = twins(main)
     _, following = _rim_next(main, twin)
-    fans = _fans(main, twin)
+    fans = fan_counts(main, twin) if consistent else _fans(main, twin)
     used = fans > 0
     vertices = int(fans.sum())  # each fan its own vertex
     if consistent:  # each edge two half-edges, or one on the boundary
@@ -605,12 +601,13 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
                         dropped.append(faces[gone])
                     faces, loops = kept, simple_loops(kept)
             faces, filled, _, _ = _fill_pass(X, normals, faces, h, bound, exclude, loops=loops,
-                                             empty=PINCH_EMPTY if PINCH_FANS else None)
+                                             empty=PINCH_EMPTY if PINCH_FANS else None,
+                                             found=None if PINCH_FANS else found)
             faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude)
             filled += refilled
             return faces, _topology(before, pinched_before, *_measure(faces), filled, 0)
         faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude,
-                                                loops=loops)
+                                                loops=loops, found=found)
         if len(stuck) or long:
             # Loops left that no flat fill closes: the mesh overlaps itself there (noise,
             # uneven sampling), on what may be a closed surface. Their points' triangles go
@@ -662,14 +659,16 @@ def _has_long_loop(X: np.ndarray, loops: list[np.ndarray], h: np.ndarray, radius
 def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
                bound: float, exclude: np.ndarray | None, *, folds: bool = False,
                grow: float = 1.0, loops: list[np.ndarray] | None = None,
-               empty: float | None = None) -> tuple[np.ndarray, int, np.ndarray, int]:
+               empty: float | None = None, found: dict | None = None
+               ) -> tuple[np.ndarray, int, np.ndarray, int]:
     """One pass of step 1's fills over the loops of ``faces``: the faces with the fills, how
     many, and the points of the loops that the sampling can leave (no longer than a circle
     of radius ``grow * bound`` spacings) but that no fill closes (every fill folds, unless
     ``folds``, or needs an edge the mesh has), and how many loops are left that are longer.
     ``loops``: ``simple_loops(faces)``, when already found. ``empty``: a fill is kept only
     when no triangle of it leaves an empty circle round its circumcentre wider than this
-    times ``bound`` (as the re-mesh's rule, :data:`pcgeom.maps.fills.REFILL_WIDTH`)."""
+    times ``bound`` (as the re-mesh's rule, :data:`pcgeom.maps.fills.REFILL_WIDTH`).
+    ``found``: :func:`_measure`'s of ``faces``, when measured."""
     from scipy.spatial import cKDTree
 
     n = len(X)
@@ -679,9 +678,7 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
         used |= np.asarray(exclude, dtype=bool)
     free = np.flatnonzero(~used)
     tree = cKDTree(X[free]) if len(free) else None
-    U = np.sort(_directed(faces), axis=1)
-    edges = np.unique(U[:, 0] * n + U[:, 1])
-    del U
+    edges = edge_keys(faces, n, found)
 
     meshed = np.flatnonzero(np.bincount(faces.ravel(), minlength=n) > 0)
     trees: dict = {}  # built when first needed
@@ -709,18 +706,18 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
         return len(under) <= max(2, len(np.unique(F)) // 4)
 
     fills, stuck, long = [], [], 0
-    for loop in simple_loops(faces) if loops is None else loops:
-        perimeter = np.linalg.norm(X[np.roll(loop, -1)] - X[loop], axis=1).sum()
-        circle = 2.0 * np.pi * bound * float(np.median(h[loop]))
-        if np.isfinite(grow) and perimeter > GROW_LOOP * circle:
+    loops = simple_loops(faces) if loops is None else loops
+    perimeters, circles, tried, near, folded = triage(
+        X, normals, h, loops, radius=bound, longest=GROW_LOOP if np.isfinite(grow) else np.inf,
+        tree=tree, edges=None if folds else edges)
+    for q, loop in enumerate(loops):
+        perimeter, circle = perimeters[q], circles[q]
+        if not tried[q]:
             long += 1  # a rim or a hole of the surface (or a slit as long): not tried
             continue
-        inner = np.zeros(0, dtype=np.int64)
-        centre = X[loop].mean(axis=0)
-        if tree is not None:
-            reach = float(np.linalg.norm(X[loop] - centre, axis=1).max())
-            inner = free[np.asarray(tree.query_ball_point(centre, reach), dtype=np.int64)]
-        F = fill_loop(X, normals, loop, inner, edges, folds)
+        inner = free[np.asarray(near[q], dtype=np.int64)] if len(near[q]) else np.zeros(
+            0, dtype=np.int64)
+        F = None if folded[q] else fill_loop(X, normals, loop, inner, edges, folds)
         if F is None:
             # No fill without a fold or a third triangle on an edge: the mesh overlaps
             # itself there. A loop no longer than a circle the sampling leaves is stuck.

@@ -1,0 +1,174 @@
+"""The repair's per-loop figures for all loops at once (not in the paper): the fill pass of
+:mod:`pcgeom.maps.topology` looks at every boundary loop of the local mesh, a hundred or
+more on a scan (face_human_choi: 120 per repair, most of 3-8 points), and their figures
+one loop at a time cost more than the fills they lead to.
+
+- :func:`loop_figures`: each loop's perimeter, median local spacing, centre and reach (the
+  same numbers as one loop at a time: the same operations in the same order).
+- :func:`least_area_folds`: which short loops have no least-area fill that keeps to its
+  corners' normals and the mesh's edges (:func:`pcgeom.maps.topology._least_area_fill`
+  returns None), for all loops of one length in one array: every fill of such a loop folds
+  or needs an edge the mesh has, and the fill pass skips it
+  (:func:`pcgeom.maps.topology.fill_loop` would return None at once).
+
+And the mesh's figures from its twins (:func:`pcgeom.mesh.twins`, one sort), found once per
+measure: :func:`main_faces` (the largest part, from the half-edges' pairs rather than
+libigl's ``facet_components``), :func:`sub_twins` (its twins, renumbered) and
+:func:`edge_keys` (the sorted edge keys the fills test against). Each gives what it gave
+before, to the bit (the repaired faces of 58 local meshes of the shared surfaces, the
+pleats and the lips identical, 2026-12-05).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..mesh import cross3, face_parts, half_edges
+
+__all__ = ["loop_figures", "least_area_folds", "triage", "main_faces", "sub_twins", "edge_keys"]
+
+
+def loop_figures(X: np.ndarray, h: np.ndarray, loops: list[np.ndarray]
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each loop's perimeter (the sum of its edges' lengths, last point joined to the first),
+    the median of its points' local spacings ``h``, its centre (the mean of its points) and
+    its reach (its farthest point from the centre): (L,), (L,), (L, 3), (L,)."""
+    sizes = np.array([len(loop) for loop in loops], dtype=np.int64)
+    if not len(loops):
+        return np.zeros(0), np.zeros(0), np.zeros((0, 3)), np.zeros(0)
+    cat = np.concatenate(loops)
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    ends = starts + sizes
+    pos = np.arange(len(cat))
+    seg = np.repeat(np.arange(len(loops)), sizes)
+    after = np.where(pos + 1 == ends[seg], starts[seg], pos + 1)  # np.roll(loop, -1)
+    edge = np.linalg.norm(X[cat[after]] - X[cat], axis=1)
+    # (Each loop's sum alone: the pairwise sum of its own edges, as one loop at a time.)
+    perimeter = np.array([edge[a:b].sum() for a, b in zip(starts.tolist(), ends.tolist())])
+    hs = h[cat]
+    ordered = hs[np.lexsort((hs, seg))]
+    mid = starts + sizes // 2
+    odd = sizes % 2 == 1
+    median = np.where(odd, ordered[mid], (ordered[mid - 1] + ordered[mid]) / 2)
+    # (Each loop's mean alone: numpy's sum down a column is pairwise, not in order.)
+    centre = np.array([X[loop].mean(axis=0) for loop in loops])
+    reach = np.maximum.reduceat(np.linalg.norm(X[cat] - centre[seg], axis=1), starts)
+    return perimeter, median, centre, reach
+
+
+def triage(X: np.ndarray, normals: np.ndarray, h: np.ndarray, loops: list[np.ndarray], *,
+           radius: float, longest: float, tree, edges: np.ndarray | None) -> tuple:
+    """The fill pass's look at its loops (:func:`pcgeom.maps.topology._fill_pass`), all at
+    once: each loop's perimeter and the circle of ``radius`` times its median local spacing
+    ``h`` (their lengths), which loops are tried (no longer than ``longest`` such circles),
+    the points of ``tree`` (a cKDTree, or None) within each tried loop's reach of its centre
+    (lists of indices, in the order a query of that loop alone gives), and which tried loops
+    of 4-8 points with none of those points fold (:func:`least_area_folds` against the
+    mesh's ``edges``; None: no such test, as for fills that may fold)."""
+    perimeters, medians, centres, reaches = loop_figures(X, h, loops)
+    circles = 2.0 * np.pi * radius * medians
+    tried = ~(perimeters > longest * circles)
+    near = [[] for _ in loops]
+    if tree is not None and tried.any():
+        near = np.empty(len(loops), dtype=object)
+        near[tried] = tree.query_ball_point(centres[tried], reaches[tried], return_sorted=False)
+    folded = np.zeros(len(loops), dtype=bool)
+    if edges is not None:
+        short = [q for q in np.flatnonzero(tried).tolist()
+                 if 4 <= len(loops[q]) <= 8 and not len(near[q])]
+        folded[short] = least_area_folds(X, normals, [loops[q] for q in short], edges)
+    return perimeters, circles, tried, near, folded
+
+
+def least_area_folds(X: np.ndarray, normals: np.ndarray, loops: list[np.ndarray],
+                     edges: np.ndarray) -> np.ndarray:
+    """(L,) bool: the loops (each of 4 to 8 points or so; all of one length or not) whose
+    least-area triangulation in space prices a triangle facing away from its corners'
+    normals or needs a diagonal that is an edge of ``edges`` (the mesh's, sorted ``a * N +
+    b``, ``a < b``): :func:`pcgeom.maps.topology._least_area_fill` (``folds`` False) is None
+    for them. The same arrays, costs and dynamic programme, with the loops of one length
+    stacked."""
+    out = np.zeros(len(loops), dtype=bool)
+    sizes = np.array([len(loop) for loop in loops], dtype=np.int64)
+    for k in np.unique(sizes).tolist():
+        which = np.flatnonzero(sizes == k)
+        L = np.stack([loops[w] for w in which.tolist()])  # (B, k)
+        out[which] = _folds_of_length(X, normals, L, edges)
+    return out
+
+
+def _folds_of_length(X: np.ndarray, normals: np.ndarray, L: np.ndarray, edges: np.ndarray
+                     ) -> np.ndarray:
+    """:func:`least_area_folds` of the loops ``L`` (B, k), all of ``k`` points."""
+    B, k = L.shape
+    P, Nv = X[L], normals[L]  # (B, k, 3)
+    i, m, j = np.meshgrid(np.arange(k), np.arange(k), np.arange(k), indexing="ij")
+    face = cross3(P[:, j] - P[:, i], P[:, m] - P[:, i])  # (B, k, k, k, 3)
+    area = 0.5 * np.linalg.norm(face, axis=-1)
+    away = np.einsum("bijmd,bijmd->bijm", face, Nv[:, i] + Nv[:, j] + Nv[:, m]) <= 0
+    total_area = np.array([a.sum() for a in area])  # each loop's own pairwise sum
+    far = 10.0 * (total_area / max(k, 1) ** 2 + 1e-300) * k
+    cost = area + away * far[:, None, None, None]
+    if edges is not None and len(edges):
+        lo = np.minimum(L[:, :, None], L[:, None, :])
+        hi = np.maximum(L[:, :, None], L[:, None, :])
+        key = lo * len(X) + hi
+        at = np.minimum(np.searchsorted(edges, key), len(edges) - 1)
+        blocked = edges[at] == key
+        ring = np.abs(np.subtract.outer(np.arange(k), np.arange(k)))
+        blocked &= ((ring != 1) & (ring != k - 1))[None]
+        cost = np.where(blocked[:, i, j] | blocked[:, j, m] | blocked[:, m, i], np.inf, cost)
+    best = np.zeros((B, k, k))
+    for gap in range(2, k):
+        a = np.arange(0, k - gap)[:, None]
+        b = a + gap
+        mids = a + np.arange(1, gap)[None, :]
+        total = best[:, a, mids] + best[:, mids, b] + cost[:, a, mids, b]
+        best[:, a[:, 0], b[:, 0]] = total.min(axis=2)
+    last = best[:, 0, k - 1]
+    return ~np.isfinite(last) | (last >= far)
+
+
+def main_faces(faces: np.ndarray, twin: np.ndarray | None = None
+                ) -> tuple[np.ndarray, int, np.ndarray | None]:
+    """The faces of the largest part of ``faces`` joined through edges, how many parts, and
+    which rows of ``faces`` it holds (None: all). ``twin``: :func:`pcgeom.mesh.twins`' first
+    of ``faces`` where its second is True (the parts then from the half-edges' pairs, not
+    libigl's ``facet_components``: the same)."""
+    if len(faces) == 0:
+        return faces, 0, None
+    if twin is not None:
+        count, label = face_parts(faces, twin)
+    else:
+        import igl
+
+        count, label = igl.facet_components(np.ascontiguousarray(faces, dtype=np.int64))
+    if count == 1:
+        return faces, 1, None
+    kept = label == np.bincount(label).argmax()
+    return faces[kept], int(count), kept
+
+
+def sub_twins(kept: np.ndarray, twin: np.ndarray) -> np.ndarray:
+    """:func:`pcgeom.mesh.twins`' first of the rows ``kept`` (bool) of a mesh that make whole
+    parts of it (joined through edges), from ``twin``, the mesh's: the same halves,
+    renumbered."""
+    m, k = len(kept), int(kept.sum())
+    new = np.cumsum(kept) - 1
+    h = np.flatnonzero(np.tile(kept, 3))
+    t = twin[h]
+    out = np.full(3 * k, -1, dtype=np.int64)
+    out[(h // m) * k + new[h % m]] = np.where(t >= 0, (t // m) * k + new[t % m], -1)
+    return out
+
+
+def edge_keys(faces: np.ndarray, n: int, found: dict | None) -> np.ndarray:
+    """The edges of ``faces``, ``a * n + b`` with ``a < b``, sorted, each once (``found``:
+    :func:`pcgeom.maps.topology._measure`'s, its twins pick one half of each edge)."""
+    H = half_edges(faces)
+    if found is not None and found["consistent"]:
+        twin = found["twin"]
+        H = H[(twin < 0) | (twin > np.arange(len(twin)))]
+        return np.sort(np.minimum(H[:, 0], H[:, 1]) * n + np.maximum(H[:, 0], H[:, 1]))
+    U = np.sort(H, axis=1)
+    return np.unique(U[:, 0] * n + U[:, 1])
