@@ -26,12 +26,12 @@ import math
 
 import numpy as np
 
-__all__ = ["signed_areas", "shoelace", "half_edges", "opposite_corners", "edge_ids",
-           "unique_edges", "euler_characteristic", "close_loops", "compact", "mean_edge",
-           "edge_sides", "unpaired", "boundary_loops", "main_part", "main_faces", "face_keys",
-           "smaller_fans", "one_fan", "successor_walks", "peel_rim", "RIM_ANGLE_DEG", "RIM_ANGLE",
-           "cross3", "twins", "corner_fans", "fan_counts", "face_parts", "drop_smaller_fans",
-           "shape_quality"]
+__all__ = ["signed_areas", "shoelace", "barycentric", "half_edges", "opposite_corners",
+           "edge_ids", "unique_edges", "euler_characteristic", "close_loops", "compact",
+           "mean_edge", "edge_sides", "unpaired", "boundary_loops", "main_part", "main_faces",
+           "face_keys", "smaller_fans", "one_fan", "successor_walks", "peel_rim",
+           "RIM_ANGLE_DEG", "RIM_ANGLE", "cross3", "twins", "corner_fans", "fan_counts",
+           "face_parts", "drop_smaller_fans", "shape_quality"]
 
 RIM_ANGLE_DEG = 120.0
 """A rim triangle whose angle opposite its boundary edge is wider than this (degrees) is a
@@ -78,6 +78,24 @@ def shoelace(P: np.ndarray) -> float:
     positive when counter-clockwise, ``A = sum_i (x_i y_{i+1} - x_{i+1} y_i) / 2``."""
     x, y = P[:, 0], P[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def barycentric(S: np.ndarray, F: np.ndarray, Z: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (k, c, 3) of the points ``Z`` (k, 2) in the triangles
+    ``F[T]`` (k, c) of the points ``S`` (n, 2); a triangle not counter-clockwise (or flat)
+    gets -inf."""
+    A, B, C = (S[F[T, q]] for q in range(3))  # (k, c, 2)
+    z = Z[:, None, :]
+    det = ((B[..., 0] - A[..., 0]) * (C[..., 1] - A[..., 1])
+           - (B[..., 1] - A[..., 1]) * (C[..., 0] - A[..., 0]))
+    wb = ((z[..., 0] - A[..., 0]) * (C[..., 1] - A[..., 1])
+          - (z[..., 1] - A[..., 1]) * (C[..., 0] - A[..., 0]))
+    wc = ((B[..., 0] - A[..., 0]) * (z[..., 1] - A[..., 1])
+          - (B[..., 1] - A[..., 1]) * (z[..., 0] - A[..., 0]))
+    ok = det > 0
+    det = np.where(ok, det, 1.0)
+    W = np.stack([det - wb - wc, wb, wc], axis=-1) / det[..., None]
+    return np.where(ok[..., None], W, -np.inf)
 
 
 def half_edges(F: np.ndarray) -> np.ndarray:

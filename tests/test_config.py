@@ -241,6 +241,8 @@ def test_configs_are_frozen(obj, attr):
          "InjectiveConfig.corner_angle: expected degrees in (0, 180], got 200.0"),
         (lambda: InjectiveConfig(scaffold=0.0),
          "InjectiveConfig.scaffold: expected a positive finite number, got 0.0"),
+        (lambda: InjectiveConfig(follow_bend=1),
+         "InjectiveConfig.follow_bend: expected True or False, got 1"),
         (lambda: InjectiveConfig(barrier={"energy": "mips"}),
          "InjectiveConfig.barrier: expected a BarrierConfig, got dict"),
         (lambda: InjectiveConfig(untangle=PullConfig()),
@@ -311,7 +313,7 @@ def test_barrier_settings_ride_in_param_config_and_old_dicts_take_the_defaults()
     assert loaded == get_preset("fast")
     assert loaded.injective == InjectiveConfig()
     assert loaded.injective_landmarks == InjectiveConfig(
-        rim_angle=150.0, untangle=UntangleConfig(local=3),
+        rim_angle=150.0, follow_bend=True, untangle=UntangleConfig(local=3),
         barrier=BarrierConfig(landmarks=1e4, cover=0.0, tolerance=1e-4,
                               refactor=2))
     part = ParamConfig.from_dict({"injective": {"barrier": {"iterations": 10}}})

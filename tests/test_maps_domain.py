@@ -325,3 +325,58 @@ def test_a_domain_hole_without_a_hole_of_the_cloud_gets_the_tearing_refinement()
         result = parametrize(V, "smile", config=config, progress=False)
     assert result.history[0]["method"] == "harmonic" and "injective" not in result.history[0]
     assert [r["stage"] for r in result.history][-1] != "localmesh"  # refined
+
+
+def _grid(n: int):
+    """An n x n grid of unit spacing in the plane and its triangles (counter-clockwise)."""
+    g = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="xy"), -1).reshape(-1, 2)
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="xy")
+    v = (j * n + i).ravel()
+    F = np.vstack([np.column_stack([v, v + 1, v + n + 1]), np.column_stack([v, v + n + 1, v + n])])
+    return g.astype(np.float64), F
+
+
+def test_rows_off_the_mesh_move_with_an_affine_map_exactly():
+    """follow_rest: rows off the map's triangles go where the piecewise linear map from the
+    start takes them, so an affine move of the known rows takes them exactly; the
+    inverse-distance mean of the moved neighbours (the rows laid anew) misses by a tenth of
+    the spacing."""
+    from pcgeom.maps.follow import follow_rest
+    from pcgeom.maps.localmesh import _interpolate_rest
+
+    g, F = _grid(8)
+    off = np.random.default_rng(0).uniform(0.5, 6.5, (20, 2))
+    S = np.vstack([g, off])
+    X = np.column_stack([S, np.zeros(len(S))])
+    known = np.arange(len(S)) < len(g)
+    A = np.array([[0.6, -0.9], [1.1, 0.4]])  # turns, shears, scales
+    U = np.where(known[:, None], S @ A.T + [2.0, -1.0], np.nan)
+    moved = follow_rest(X, U, known, S, F)
+    exact = S @ A.T + [2.0, -1.0]
+    assert np.abs(moved - exact).max() < 1e-12
+    laid = _interpolate_rest(X, U.copy(), known)
+    assert np.abs(laid - exact)[~known].max() > 0.1
+
+
+def test_a_row_off_the_mesh_stays_on_its_side_of_a_bent_edge():
+    """A true triangle with a corner off the local mesh, that corner a twentieth of the
+    spacing beside the triangle's other edge, and a landmark pulled hard two spacings away
+    (as on peaks_three_cgal, bench_landmarks' seed 0 at 0.05 off): laid anew from its moved
+    neighbours the corner crosses the edge and the triangle turns over; moved with the map
+    from the start (landmarks_onto's follow_bend) it stays on its side."""
+    from pcgeom.maps.follow import follow_rest
+    from pcgeom.maps.localmesh import _interpolate_rest
+    from pcgeom.mesh import signed_areas
+
+    g, F = _grid(8)
+    S = np.vstack([g, [[3.5, 3.05]]])
+    X = np.column_stack([S, np.zeros(len(S))])
+    known = np.arange(len(S)) < len(g)
+    # A smooth pull downwards around (3.5, 4.3), no triangle of the grid turned over.
+    D = S - [0.0, 0.4] * np.exp(-((S - [3.5, 4.3]) ** 2).sum(axis=1) / 0.64)[:, None]
+    assert (signed_areas(D[:len(g)], F) > 0).all()
+    U = np.where(known[:, None], D, np.nan)
+    true = np.array([[3 * 8 + 3, 3 * 8 + 4, len(g)]])  # (3, 3), (4, 3), the row off the mesh
+    assert signed_areas(S, true)[0] > 0
+    assert signed_areas(_interpolate_rest(X, U.copy(), known), true)[0] < 0
+    assert signed_areas(follow_rest(X, U, known, S, F), true)[0] > 0

@@ -191,6 +191,15 @@ class InjectiveConfig:
     mesh's own triangles. face_human_choi with a hole, onto ``annulus:0.3`` (its local mesh
     has 47 small holes where eyelids and lips close): 0.01 lets them open wide, 0.048 rad;
     1: 0.044 rad."""
+    follow_bend: bool = False
+    """In :func:`pcgeom.maps.domain.landmarks_onto`, the rows on no triangle of the cleaned
+    mesh (off the local mesh's main part, or tips of dropped triangles) move with the map from
+    its start (:func:`pcgeom.maps.follow.follow_rest`: where the piecewise linear map from the
+    start takes them), instead of being laid anew at the mean of their neighbours in the
+    map: they follow the bend towards the landmarks and keep their side of every edge.
+    peaks_three_cgal, four landmarks 0.05 off a disk automorphism's image (bench_landmarks'
+    seed 0): 2 true triangles turned over -> 0. Off by default: there the start is a
+    harmonic map that may fold, with no layout worth keeping."""
     untangle: UntangleConfig = UntangleConfig()
     """Step 3."""
     pull: PullConfig = PullConfig()
@@ -207,6 +216,7 @@ class InjectiveConfig:
                 raise InputError(f"InjectiveConfig.{name}: expected degrees in (0, 180], "
                                  f"got {value!r}")
         _positive("InjectiveConfig", "scaffold", self.scaffold)
+        _flag("InjectiveConfig", "follow_bend", self.follow_bend)
         for name, cls in (("untangle", UntangleConfig), ("pull", PullConfig),
                           ("barrier", BarrierConfig)):
             if not isinstance(getattr(self, name), cls):
@@ -214,7 +224,8 @@ class InjectiveConfig:
                                  f"got {type(getattr(self, name)).__name__}")
 
 
-LANDMARKS_INJECTIVE = InjectiveConfig(rim_angle=150.0, untangle=UntangleConfig(local=3),
+LANDMARKS_INJECTIVE = InjectiveConfig(rim_angle=150.0, follow_bend=True,
+                                      untangle=UntangleConfig(local=3),
                                       barrier=BarrierConfig(landmarks=1e4, cover=0.0,
                                                             tolerance=1e-4, refactor=2))
 """The barrier map with landmarks (:func:`pcgeom.maps.domain.landmarks_onto`): the conformal

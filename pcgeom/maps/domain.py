@@ -59,6 +59,7 @@ from ._sparse import spd_factor
 from .disk import conformal_disk
 from .free import conformal_factor, free_start
 from .injective import injective_map
+from .follow import follow_rest
 from .localmesh import LocalMesh, _interpolate_rest, _submesh, mesh_flips
 from .refine import refine
 from .riemann import ROTATIONS, riemann_onto, simply_connected
@@ -359,13 +360,22 @@ def _harmonic_layout(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain
     return main, (V, F), D, pairs, info
 
 
-def _on_all_rows(X: np.ndarray, main: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """The map ``D`` of the rows ``main``, the other rows of ``X`` interpolated."""
+def _on_all_rows(X: np.ndarray, main: np.ndarray, D: np.ndarray,
+                 follow: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """The map ``D`` of the rows ``main``, the other rows of ``X`` interpolated; with
+    ``follow = (start, faces)`` (the map of every row that ``D`` moved, and ``D``'s
+    triangles, rows of ``main``) the rows on none of those triangles move with the map from
+    the start (:func:`pcgeom.maps.follow.follow_rest`)."""
     U = np.full((len(X), 2), np.nan)
     U[main] = D
     known = np.zeros(len(X), dtype=bool)
-    known[main] = True
-    return _interpolate_rest(X, U, known)
+    if follow is None:
+        known[main] = True
+        return _interpolate_rest(X, U, known)
+    start, faces = follow
+    known[main[faces].ravel()] = True
+    U[~known] = np.nan
+    return follow_rest(X, U, known, start, main[faces])
 
 
 def harmonic_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: Domain, *,
@@ -447,10 +457,14 @@ def injective_onto(X: np.ndarray, mesh: LocalMesh, free_uv: np.ndarray, domain: 
 
 
 def _injective(X: np.ndarray, mesh: LocalMesh, start: tuple, pairs: list, *, domain: Domain,
-               landmarks, config: InjectiveConfig) -> tuple[np.ndarray, dict]:
+               landmarks, config: InjectiveConfig, start_all: np.ndarray | None = None
+               ) -> tuple[np.ndarray, dict]:
     """:func:`pcgeom.maps.injective.injective_map` from ``start = (main, V, F, D)`` (the
     cleaned main part and its first map) with the paired ``(loop, ring)``: the map of every
-    row of ``X``, and its record (``injective``, ``dropped_faces``)."""
+    row of ``X``, and its record (``injective``, ``dropped_faces``). With
+    :attr:`InjectiveConfig.follow_bend` and ``start_all`` (the start of every row), the rows
+    on none of the cleaned mesh's triangles (off the main part, or tips of dropped triangles)
+    move with the map from it (:func:`pcgeom.maps.follow.follow_rest`)."""
     main, V, F, D = start
     try:
         U, inj = injective_map(V, F, D, [loop for loop, _ in pairs],
@@ -462,10 +476,13 @@ def _injective(X: np.ndarray, mesh: LocalMesh, start: tuple, pairs: list, *, dom
     info = {key: inj[key] for key in ("pinched", "peeled", "handles", "flipped_start",
                                       "released", "iterations", "flipped", "seconds")}
     info["start"] = inj["start"]["method"]
+    follow = None
+    if config.follow_bend and start_all is not None:
+        follow = (start_all, inj["faces"])
     # The local mesh's triangles the cleaning set aside (rows of X), for mesh_flips.
-    return _on_all_rows(X, main, U), {"injective": info,
-                                      "dropped_faces": _dropped(mesh.faces, main[inj["faces"]],
-                                                                len(X))}
+    return _on_all_rows(X, main, U, follow), {"injective": info,
+                                              "dropped_faces": _dropped(
+                                                  mesh.faces, main[inj["faces"]], len(X))}
 
 
 def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: Domain,
@@ -516,7 +533,7 @@ def landmarks_onto(X: np.ndarray, mesh: LocalMesh, disk_uv: np.ndarray, domain: 
     outer = loops[0] if shoelace(D[loops[0]]) > 0 else loops[0][::-1]
     ring = np.asarray(domain.boundary_loops()[0], dtype=np.float64)
     U, more = _injective(X, mesh, (main, V, F, D), [(outer, ring)], domain=domain,
-                         landmarks=landmarks, config=config)
+                         landmarks=landmarks, config=config, start_all=U0)
     return _polished(X, mesh, U, domain, landmarks, {**info, **more})
 
 
@@ -563,7 +580,7 @@ def _linear_bend(X: np.ndarray, mesh: LocalMesh, Z: np.ndarray, marks: list,
     area = np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
     cost = [float(np.sum(area * np.minimum(_anticonformal(V, F, M[:, 0], M[:, 1]), 1.0)))
             for M in (D, B)]
-    out = _on_all_rows(X, main, B)
+    out = _on_all_rows(X, main, B, (Z, F))  # the other rows follow the bend
     fit = max(hausdorff(out[i], t) for i, t in marks)
     used = folds == 0 and fit <= tolerance and cost[1] <= BEND_COST * cost[0]
     record = {"used": bool(used), "folds": folds, "fit": round(float(fit), 6),

@@ -233,7 +233,8 @@ def polish_onto(X: np.ndarray, mesh, U: np.ndarray, domain, landmarks, *,
                 around: float = 0.0) -> tuple[np.ndarray, dict]:
     """:func:`polish_disk` of the map ``U`` (N, 2) of every row of ``X`` onto the disk
     ``domain``, on the local mesh's main part, its landmark pairs as the barrier map pairs
-    them (:mod:`pcgeom.maps.injective.landmarks`); the other rows interpolated. ``around``
+    them (:mod:`pcgeom.maps.injective.landmarks`); the other rows move with it
+    (:func:`pcgeom.maps.follow.follow_rest`). ``around``
     (in the unit disk's units; :data:`AROUND` after a bend): the points that close to a
     landmark point are held where ``U`` has them too."""
     import time
@@ -262,4 +263,4 @@ def polish_onto(X: np.ndarray, mesh, U: np.ndarray, domain, landmarks, *,
     info["seconds"] = round(time.perf_counter() - t0, 3)
     if not info["used"]:
         return U, info
-    return _on_all_rows(X, main, centre + radius * B), info
+    return _on_all_rows(X, main, centre + radius * B, (U, F)), info

@@ -45,7 +45,7 @@ import numpy as np
 from ..domains import Domain
 from ..domains.base import CORNER_DEG
 from ..errors import InputError
-from ..mesh import shoelace, signed_areas
+from ..mesh import barycentric, shoelace, signed_areas
 from .disk import _harmonic_measure_disk
 
 __all__ = ["DomainDisk", "CircleDisk", "domain_disk", "riemann_onto", "simply_connected",
@@ -91,23 +91,6 @@ class DomainDisk:
         self._cum = np.concatenate([[0.0], np.cumsum(seg)])
         self._domain_side = None  # forward's locator, built when first asked
 
-    @staticmethod
-    def _barycentric(S: np.ndarray, F: np.ndarray, Z: np.ndarray, T: np.ndarray) -> np.ndarray:
-        """Barycentric coordinates (k, c, 3) of the points ``Z`` (k, 2) in the triangles
-        ``F[T]`` (k, c) of the points ``S``; a degenerate triangle gets -inf."""
-        A, B, C = (S[F[T, q]] for q in range(3))  # (k, c, 2)
-        z = Z[:, None, :]
-        det = ((B[..., 0] - A[..., 0]) * (C[..., 1] - A[..., 1])
-               - (B[..., 1] - A[..., 1]) * (C[..., 0] - A[..., 0]))
-        wb = ((z[..., 0] - A[..., 0]) * (C[..., 1] - A[..., 1])
-              - (z[..., 1] - A[..., 1]) * (C[..., 0] - A[..., 0]))
-        wc = ((B[..., 0] - A[..., 0]) * (z[..., 1] - A[..., 1])
-              - (B[..., 1] - A[..., 1]) * (z[..., 0] - A[..., 0]))
-        ok = det > 0
-        det = np.where(ok, det, 1.0)
-        W = np.stack([det - wb - wc, wb, wc], axis=-1) / det[..., None]
-        return np.where(ok[..., None], W, -np.inf)
-
     def _carry(self, Z: np.ndarray, source: str, candidates: int) -> np.ndarray:
         """The points ``Z`` (k, 2) of the mesh's ``source`` side (``"D"``: the disk, ``"V"``:
         the domain) carried to the other side: barycentric in the triangle holding each
@@ -131,7 +114,7 @@ class DomainDisk:
             tree, ring, cum = self._domain_side
         _, T = tree.query(Z, min(candidates, len(self.F)))
         T = T.reshape(len(Z), -1)
-        W = self._barycentric(S, self.F, Z, T)  # (k, c, 3)
+        W = barycentric(S, self.F, Z, T)  # (k, c, 3)
         worst = W.min(axis=2)
         best = np.argmax(worst, axis=1)
         rows = np.arange(len(Z))
