@@ -17,8 +17,10 @@ map of :mod:`pcgeom.maps.free`, the disk and domain maps after it):
    and consistently oriented. (LSCM over the plain union of the fans folds: DESIGN.md.)
 4. **Topology.** The mesh is repaired (:mod:`pcgeom.maps.topology`). Its bridges between
    sheets that nearly touch are cut where that lowers the repaired mesh's genus, and
-   well-shaped triangles that turn from a corner's normal by more than 60 degrees dropped
-   before (:mod:`pcgeom.maps.bridges`), when the cloud came with its normals
+   before that the lids of one-sided stars (an edge only one end's fan made, whose ends no
+   short path of edges both ends' fans made joins: :func:`pcgeom.maps.bridges.one_sided`)
+   and well-shaped triangles that turn from a corner's normal by more than 60 degrees
+   dropped (:mod:`pcgeom.maps.bridges`), when the cloud came with its normals
    (:data:`BRIDGES_WITH_INPUT_NORMALS`; ``local_mesh(..., bridges=True)`` asks for it).
 
 :func:`mesh_cloud` is the whole step as a run takes it: outliers flagged, the surface test,
@@ -40,7 +42,7 @@ from ..mesh import (RIM_ANGLE, edge_sides, face_keys, main_part, opposite_corner
 from ..neighbours import (Neighbours, adaptive_pca, find_outliers, local_pca, scale_ladder,
                           surface_variation)
 from ..progress import Progress
-from .bridges import cut_bridges, disagreeing
+from .bridges import cut_bridges, disagreeing, one_sided
 from .normals import orient_normals
 from .topology import PLANAR_CLOSED, SPACING_NEIGHBOURS, Topology, repair, require_open
 
@@ -56,8 +58,10 @@ samplings (3k-11k points; 11k, three seeds: 2.04-2.29x libigl LSCM on the true m
 1.06-1.32x, flipped 1.04-1.13% -> 0.87-1.03%), the pleats and the shared surfaces with
 normals unchanged (no handle, nothing cut); on bare clouds the estimated normals of walls
 that nearly touch are turned the wrong way in patches, and the cut cost the pleats
-(0.026 -> 0.068 rad). (Those figures are with the lips sheet's normals of before
-2026-12-05, up to 60 degrees off on the mouth's walls. With its true normals the rule,
+(0.026 -> 0.068 rad); the lids of one-sided stars (:func:`pcgeom.maps.bridges.one_sided`,
+5 hops), measured bare, cost the pleat 1.5 spacings wide (0.0154 -> 0.0178 rad, 0.32 ->
+0.43% flipped). (Those figures are with the lips sheet's normals of before 2026-12-05, up
+to 60 degrees off on the mouth's walls. With its true normals the rule,
 now with the triangles that turn from their normals dropped first
 (:func:`pcgeom.maps.bridges.disagreeing`), gives 0.90x / 1.23x / 1.01x LSCM, 0.87 / 0.83 /
 0.68% flipped at 11k, seeds 0-2; without the drop 1.23x / 2.09x / 1.22x, 0.92 / 1.09 /
@@ -398,6 +402,8 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
         knn = Neighbours.of(X[kept], neighbours)
     candidates = kept[_fans(X[kept], normals[kept], neighbours, progress, knn=knn)]
     faces, n_candidates = _merge(X, normals, candidates, facing)
+    if bridges:  # the lids of one-sided stars first: no two-sided path joins their ends
+        faces = faces[~one_sided(faces, candidates, n)]
     del candidates
     if bridges:
         faces = _drop_disagreeing(X, normals, faces)
