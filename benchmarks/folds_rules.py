@@ -190,6 +190,85 @@ def render(rows) -> list[str]:
                     ("flipped", lambda r: _cell(r, "flip_pct", ".2f") + "%")], rows)
 
 
+
+LID_CASES = (("deep", "uniform", 1.0), ("deep", "uniform", 1.5), ("deep", "uniform", 2.0),
+             ("deep", "even", 1.0), ("deep", "even", 1.5), ("pleat", "", 1.5),
+             ("pleat", "", 2.0), ("pleat", "", 2.5))
+"""(kind, sampling, gap) of the synthetic surfaces of :func:`lid_rows`."""
+
+
+@contextlib.contextmanager
+def lids_kept():
+    """``pcgeom.parametrize`` without the cut of one-sided stars' lids
+    (:func:`pcgeom.maps.bridges.one_sided`), for the duration."""
+    import pcgeom.maps.localmesh as LM
+
+    saved = LM.one_sided
+    LM.one_sided = lambda faces, fans, n, *a: np.zeros(len(faces), dtype=bool)
+    try:
+        yield
+    finally:
+        LM.one_sided = saved
+
+
+def lid_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
+    """Each surface mapped with its normals by ``fast`` with the lids of one-sided stars kept
+    (before) and cut (now), one after the other in this process: the grooves and pleats of
+    each cloud seed (their true normals, free map), the shared surfaces with their reference
+    mesh's vertex normals (free and onto the disk). Angle and flips on the true triangles."""
+    import igl
+
+    import pcgeom
+    from pcgeom.synthetic import pleated_sheet
+    from pcgeom.synthetic_folds import deep_folds
+
+    def cases():
+        for kind, sampling, gap in LID_CASES:
+            for seed in seeds:
+                if kind == "deep":
+                    s = deep_folds(points, gap=gap, sampling=sampling, seed=seed)
+                    name = f"deep folds ({sampling}), walls {gap:g}"
+                else:
+                    s = pleated_sheet(points, folds=4, gap=gap, seed=seed)
+                    name = f"pleat, sheets {gap:g} apart"
+                yield f"{name}, cloud seed {seed}", s.points, s.faces, s.normals, ("free",)
+        for name in SHARED:
+            if H.available(name):
+                s = H.load_surface(name)
+                N = igl.per_vertex_normals(np.ascontiguousarray(s.V, dtype=np.float64),
+                                           np.ascontiguousarray(s.F, dtype=np.int64))
+                yield name, s.V, s.F, N, ("free", "disk")
+
+    fast = pcgeom.get_preset("fast")
+    rows = []
+    for case, V, F, N, domains in cases():
+        for domain in domains:
+            row = {"case": case, "domain": domain}
+            for key in ("off", "on"):
+                with warnings.catch_warnings(), (lids_kept() if key == "off"
+                                                 else contextlib.nullcontext()):
+                    warnings.simplefilter("ignore")
+                    result, seconds = H.timed(pcgeom.parametrize, V, domain, config=fast,
+                                              seed=0, progress=False, normals=N)
+                row[key] = {"wall_s": seconds, **H.score_map(result.uv, V, F)}
+            H.log(f"{case} {domain}: lids kept {row['off']['rad']:.4f}, cut "
+                  f"{row['on']['rad']:.4f}")
+            rows.append(row)
+    return rows
+
+
+def render_lids(rows) -> list[str]:
+    def cell(key, field, fmt):
+        return lambda r: format(r[key][field], fmt)
+
+    return H.table([("surface", "{case}"), ("map", "{domain}"),
+                    ("angle, lids kept", cell("off", "rad", ".4f")),
+                    ("angle, lids cut", cell("on", "rad", ".4f")),
+                    ("flipped kept", lambda r: _flips(r["off"])),
+                    ("flipped cut", lambda r: _flips(r["on"])),
+                    ("wall s kept / cut", lambda r: f"{r['off']['wall_s']:.1f} / "
+                                                    f"{r['on']['wall_s']:.1f}")], rows)
+
 if __name__ == "__main__":
     p = H.parser(__doc__)
     p.add_argument("--seeds", nargs="*", type=int, default=[0])
