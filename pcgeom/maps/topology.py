@@ -26,7 +26,9 @@ boundary into a folded planar map. This module measures the mesh's topology and 
    costs their maps (peaks_7holes_choi 0.030 to 0.046 rad, 9 flips). The loops left that are
    small (most false loops: no flat fill of the loop alone, as the mesh round it overlaps
    itself or the loop runs through pinched vertices) have their neighbourhood re-meshed
-   flat instead (:func:`pcgeom.maps.fills.refill_small_loops`, its measured rule there).
+   flat instead (:func:`pcgeom.maps.fills.refill_small_loops`, its measured rule there);
+   those left at a pinched vertex lose the vertex's smaller fan where the loops that leaves
+   get flat fills (:func:`pcgeom.maps.pinches.mend_pinches`, :data:`PINCH_MEND`).
 3. **Closed.** Without a long loop, the same fills; then the loops that no flat fill closes
    (the mesh overlaps itself there: noise, uneven density), or whose fill is wider than the
    bound, are opened further (their points' triangles go) and filled again, folds allowed,
@@ -58,6 +60,7 @@ from ..errors import InputError
 from ..mesh import (corner_fans, cross3, drop_smaller_fans, face_keys, fan_counts,
                     half_edges as _directed, twins)
 from .fills import refill_small_loops
+from .pinches import mend_pinches
 from .topology_batch import edge_keys, main_faces, sub_twins, triage
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
@@ -107,6 +110,9 @@ the fans were dropped, and the pleats lost their rounds, 0.0261 -> 0.0515 rad.)"
 PINCH_EMPTY = 0.75
 """With :data:`PINCH_FANS`, the fill pass's fills leave no empty circle wider than this times
 the bound (peaks_7holes_choi: 1.0 kept 4 of its 7 holes, 0.75 all 7)."""
+
+PINCH_MEND = True
+"""Whether :func:`pcgeom.maps.pinches.mend_pinches` follows the re-meshes (measured there)."""
 
 SPACING_NEIGHBOURS = 6
 """Nearest points whose mean distance is a point's local spacing."""
@@ -605,6 +611,9 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
                                              found=None if PINCH_FANS else found)
             faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude)
             filled += refilled
+            if PINCH_MEND:
+                faces, mended = mend_pinches(X, normals, faces, h, bound, exclude)
+                filled += mended
             return faces, _topology(before, pinched_before, *_measure(faces), filled, 0)
         faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude,
                                                 loops=loops, found=found)
