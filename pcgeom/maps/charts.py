@@ -322,15 +322,14 @@ def _map(V: np.ndarray, piece: Piece, slits: int, bound: float = np.inf, *,
 
     P, F = V[piece.origin], piece.F
     U, info = chart_map(P, F)
-    U, info, start = _bounded(P, F, U, dict(info, bounded=False, outline=False, lobes=False),
-                              bound)
+    U, info = _bounded(P, F, U, dict(info, bounded=False, outline=False, lobes=False), bound)
     simple = bool(boundary_simple(U, F))
     info["outline_tried"] = info["lobes_tried"] = False
     crossed = None  # the share covered twice, measured once where it is needed
     if (outline or lobes) and not simple and not info["flips"]:
         crossed = overlap_area(U, F)
         if outline and crossed <= PINCH:
-            U, info, simple = _outline(P, F, U, start, info, bound)
+            U, info, simple = _outline(P, F, U, info, bound)
         if lobes and not simple and crossed <= LOBES:
             U, info, simple = _lobes(P, F, U, info, bound)
     # A seam whose two sides the map keeps together (a slit across a smooth part, a path to
@@ -347,56 +346,61 @@ def _map(V: np.ndarray, piece: Piece, slits: int, bound: float = np.inf, *,
 
 
 def _bounded(P: np.ndarray, F: np.ndarray, U: np.ndarray, info: dict, bound: float
-             ) -> tuple[np.ndarray, dict, np.ndarray]:
+             ) -> tuple[np.ndarray, dict]:
     """``U`` (LSCM), or when its spread passes ``bound`` the scale-bounded map
     (:func:`pcgeom.maps.chart_scale.bound_scale`) if that one has no flip, a spread within the
     bound and a conformal distortion at most :data:`pcgeom.maps.chart_scale.ANGLE_COST` times
-    ``U``'s (``info["bounded"]`` says which; ``info["conformal"]``: ``U``'s); and the start
-    for :func:`_outline` (the bounded map when it is within the bound, whatever its angles)."""
+    ``U``'s (``info["bounded"]`` says which; ``info["conformal"]``: ``U``'s).
+
+    The map returned is the start of :func:`_outline` and :func:`_lobes` too. A bounded map
+    dropped on angle is no start for them: they add angle, and keep nothing over
+    ``ANGLE_COST`` (:func:`_outline`) or :data:`LOBE_COST` times LSCM's (pretzel g4 20k,
+    before the accelerated rounds: its bounded start 1.26x, onto the outline 1.22x; at 50k
+    a bounded start of 1.45x, whose barrier map took 48 s to fail). Measured on
+    face_human_choi (``--cut auto``): the bounded maps of 7 of its 59 maps were dropped on
+    angle, six at 1.49-2.31x LSCM's and one at 1.34x, each crossing itself over 0.6-12% of
+    its area (more than :data:`LOBES`, which :func:`_lobes` is not tried on)."""
     from .chart_scale import ANGLE_COST, FOLDS, bound_scale, conformal_distortion, unfold_locally
 
     info = dict(info, conformal=conformal_distortion(P, U, F))
     if info["flips"] or not np.isfinite(bound) or spread(P, U, F) <= bound:
-        return U, info, U
+        return U, info
     W = bound_scale(P, F, U, bound, unfold=False)
     # Judged before its folds are unfolded (the costly part), and again after.
     folds = int((signed_areas(W, F) <= 0).sum())
     if folds > FOLDS * len(F) or spread(P, W, F) > bound:
-        return U, info, U
+        return U, info
     if folds:
         W = unfold_locally(P, F, W)
         if (signed_areas(W, F) <= 0).any() or spread(P, W, F) > bound:
-            return U, info, U
+            return U, info
     if conformal_distortion(P, W, F) > ANGLE_COST * info["conformal"]:
-        return U, info, W
-    return W, dict(info, bounded=True), W
+        return U, info
+    return W, dict(info, bounded=True)
 
 
-def _outline(P: np.ndarray, F: np.ndarray, U: np.ndarray, start: np.ndarray, info: dict,
-             bound: float) -> tuple[np.ndarray, dict, bool]:
+def _outline(P: np.ndarray, F: np.ndarray, U: np.ndarray, info: dict, bound: float
+             ) -> tuple[np.ndarray, dict, bool]:
     """A chart whose boundary crosses itself made one-to-one without a seam
-    (:func:`pcgeom.maps.chart_scale.onto_outline` from ``start``), kept when it has no flip, a
-    simple boundary, a conformal distortion at most ``ANGLE_COST`` times LSCM's and a spread
-    within ``bound`` (a chart that needs no more seams: one still over the bound is slit or
-    split as before, which leaves the finger as it was); else ``U`` as it was. Returns the
-    map, its info (``outline``: kept) and whether its boundary is simple."""
+    (:func:`pcgeom.maps.chart_scale.onto_outline` from ``U``, the map :func:`_bounded` kept),
+    kept when it has no flip, a simple boundary, a conformal distortion at most
+    ``ANGLE_COST`` times LSCM's and a spread within ``bound`` (a chart that needs no more
+    seams: one still over the bound is slit or split as before, which leaves the finger as it
+    was); else ``U`` as it was. Returns the map, its info (``outline``: kept) and whether its
+    boundary is simple."""
     from .atlas import boundary_simple
     from .chart_scale import ANGLE_COST, conformal_distortion, onto_outline
 
-    if spread(P, start, F) > bound:  # the outline keeps its shape: it would stay over
-        return U, info, False
-    if conformal_distortion(P, start, F) > ANGLE_COST * info["conformal"]:
-        # Nor does it lower the distortion much (pretzel g4 20k: 1.26x -> 1.22x LSCM's); at
-        # 50k the bounded start is 1.45x, and its barrier map took 48 s to fail.
+    if spread(P, U, F) > bound:  # the outline keeps its shape: it would stay over
         return U, info, False
     info = dict(info, outline_tried=True)
-    X = onto_outline(P, F, start)
+    X = onto_outline(P, F, U)
     if X is None or not boundary_simple(X, F):
         return U, info, False
     if conformal_distortion(P, X, F) > ANGLE_COST * info["conformal"] or \
             spread(P, X, F) > bound:
         return U, info, False
-    return X, dict(info, outline=True, bounded=info["bounded"] or start is not U), True
+    return X, dict(info, outline=True), True
 
 
 def _lobes(P: np.ndarray, F: np.ndarray, U: np.ndarray, info: dict, bound: float
