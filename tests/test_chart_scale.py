@@ -114,3 +114,32 @@ def test_unfold_lobes_makes_the_crossing_simple_on_a_patch():
     assert (signed_areas(X, F) > 0).all() and boundary_simple(X, F)
     assert 0 < (np.abs(X - U).max(axis=1) > 0).sum() < len(P)
     assert unfold_lobes(*_prongs(8, 3.0)) is None
+
+
+def test_covered_outline_is_the_union_s_outer_ring():
+    """The outline of a one-to-one map (prongs apart) is its boundary: a closed ring,
+    counter-clockwise, of the triangles' total area, mirrored maps alike. The crossing
+    prongs' outline encloses every vertex and their union (the gap they close off too); two
+    triangles apart give None, or the larger one's ring with ``largest``."""
+    import shapely
+
+    from pcgeom.maps.atlas import overlap_area
+    from pcgeom.maps.chart_scale import covered_outline
+    from pcgeom.mesh import shoelace
+
+    _, F, U = _prongs(8, 3.0)
+    total = float(np.abs(signed_areas(U, F)).sum())
+    for X in (U, U * [1.0, -1.0]):
+        ring = covered_outline(X, F)
+        assert np.array_equal(ring[0], ring[-1])
+        assert abs(shoelace(ring[:-1]) - total) < 1e-9 * total
+    _, F, U = _prongs()
+    ring = covered_outline(U, F)
+    total = float(np.abs(signed_areas(U, F)).sum())
+    assert shoelace(ring[:-1]) >= total * (1 - overlap_area(U, F)) * (1 - 1e-9)
+    assert shapely.Polygon(ring).buffer(1e-9 * np.sqrt(total)).contains(
+        shapely.points(U)).all()
+    U2 = np.array([[0, 0], [1, 0], [0, 1], [5, 0], [7, 0], [5, 2]], dtype=np.float64)
+    F2 = np.array([[0, 1, 2], [3, 4, 5]])
+    assert covered_outline(U2, F2) is None
+    assert abs(shoelace(covered_outline(U2, F2, largest=True)[:-1]) - 2.0) < 1e-12

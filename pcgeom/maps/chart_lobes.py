@@ -15,7 +15,8 @@ takes 48-122 s at 50k points. :func:`unfold_lobes` solves the same problem on a 
 2. **The patch**: the triangles that touch a lobe's vertices or cover the region a lobe
    bounds (both sheets), grown by ``rings`` rings (:data:`LOBE_RINGS`); the triangles it
    encloses added; it must be a disk.
-3. **The outline**: the outer ring of the union of the patch's triangles (a simple polygon).
+3. **The outline**: the outer ring of the union of the patch's triangles (a simple polygon:
+   :func:`pcgeom.maps.chart_scale.covered_outline`, as for the whole chart's).
    The patch's boundary edges inside the chart lie on it and are held; the vertices of its
    boundary on the chart's free boundary slide along it (:func:`_place_runs`: those on it
    stay, the lobe's are spread over the stretch that cuts the lobe off).
@@ -206,6 +207,7 @@ def unfold_lobes(P: np.ndarray, F: np.ndarray, U: np.ndarray, *,
     import shapely
 
     from ..config import BarrierConfig
+    from .chart_scale import covered_outline
     from .injective.barrier import _descend
     from .injective.jacobians import _scaled_reference
     from .injective.rings import _Layout, _Rings
@@ -245,12 +247,9 @@ def unfold_lobes(P: np.ndarray, F: np.ndarray, U: np.ndarray, *,
     slides = on_rim & np.roll(on_rim, 1)  # both edges at the vertex on the chart's boundary
     if not slides.any() or slides.all():
         return None
-    region = shapely.unary_union(tris[rows])
-    if region.geom_type != "Polygon":
+    outline = covered_outline(U, F[rows])
+    if outline is None:
         return None
-    outline = np.asarray(region.exterior.coords)
-    if shoelace(outline[:-1]) < 0:
-        outline = outline[::-1]
     runs, ts, placed = _place_runs(Us, ls, slides, outline)
     if runs is None:
         return None

@@ -56,7 +56,8 @@ import scipy.sparse as sp
 from ..mesh import signed_areas
 
 __all__ = ["bound_scale", "unfold_locally", "conformal_distortion", "BAND", "FOLDS", "ROUNDS",
-           "RINGS", "ANGLE_COST", "ANDERSON", "onto_outline", "OUTLINE_STEPS"]
+           "RINGS", "ANGLE_COST", "ANDERSON", "onto_outline", "OUTLINE_STEPS",
+           "covered_outline"]
 
 BAND = 0.8
 """The band of target scale factors spans this fraction of the bound. Accelerated, the
@@ -228,8 +229,6 @@ def onto_outline(P: np.ndarray, F: np.ndarray, U0: np.ndarray, *, steps: int = O
     polygon), its boundary sliding along that outline from where ``U0`` has it. The lobes
     that cross are pulled inside; the rest keeps ``U0``'s shape and so its scale. None when
     the barrier map fails or folds."""
-    import shapely
-
     from ..config import BarrierConfig, InjectiveConfig
     from ..mesh import boundary_loops, shoelace
     from .injective import injective_map
@@ -237,13 +236,7 @@ def onto_outline(P: np.ndarray, F: np.ndarray, U0: np.ndarray, *, steps: int = O
     loop = np.asarray(boundary_loops(F)[0])
     if shoelace(U0[loop]) < 0:
         loop = loop[::-1]
-    region = shapely.unary_union(shapely.polygons(np.concatenate([U0[F], U0[F][:, :1]],
-                                                                 axis=1)))
-    if region.geom_type != "Polygon":
-        region = max(region.geoms, key=lambda g: g.area)
-    ring = np.asarray(region.exterior.coords)
-    if shoelace(ring[:-1]) < 0:
-        ring = ring[::-1]
+    ring = covered_outline(U0, F, largest=True)
     config = InjectiveConfig(barrier=BarrierConfig(iterations=steps))
     try:  # the boundary at its nearest points on the outline, when they are in order
         U, info = injective_map(P, F, U0, [loop], [ring], config=config)
@@ -254,6 +247,26 @@ def onto_outline(P: np.ndarray, F: np.ndarray, U0: np.ndarray, *, steps: int = O
         except ValueError:
             return None
     return U if info.get("flipped_all", 1) == 0 and not (signed_areas(U, F) <= 0).any() else None
+
+
+def covered_outline(U: np.ndarray, F: np.ndarray, *, largest: bool = False
+                    ) -> np.ndarray | None:
+    """The outer outline of the region the triangles ``U[F]`` cover (shapely's union of
+    them): (k + 1, 2), closed (its first point again last), counter-clockwise. The outline a
+    barrier map slides a crossing boundary onto (:func:`onto_outline`,
+    :func:`pcgeom.maps.chart_lobes.unfold_lobes`). Where the region falls in several parts:
+    the largest one's outline (``largest``), else None."""
+    import shapely
+
+    from ..mesh import shoelace
+
+    region = shapely.unary_union(shapely.polygons(np.concatenate([U[F], U[F][:, :1]], axis=1)))
+    if region.geom_type != "Polygon":
+        if not largest:
+            return None
+        region = max(region.geoms, key=lambda g: g.area)
+    ring = np.asarray(region.exterior.coords)
+    return ring[::-1] if shoelace(ring[:-1]) < 0 else ring
 
 
 def _on_ring(U: np.ndarray, loop: np.ndarray, ring: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
