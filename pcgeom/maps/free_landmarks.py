@@ -175,16 +175,11 @@ def pinned_free(X: np.ndarray, mesh: LocalMesh, uv: np.ndarray, landmarks, *,
         The pins turn triangles over: what was done instead and how far the landmarks are.
     """
     from ..metrics import hausdorff
+    from .domain import _on_main
 
     t0 = time.perf_counter()
     main, V, F = _submesh(X, mesh.faces, mesh.main)
-    remap = np.full(len(X), -1, dtype=np.int64)
-    remap[main] = np.arange(len(main))
-    marks = []
-    for i, q in landmarks:
-        i = remap[np.asarray(i, dtype=np.int64)]
-        if (i >= 0).any():
-            marks.append((i[i >= 0], np.asarray(q, dtype=np.float64)))
+    marks = _on_main(landmarks, main, len(X))
     D = uv[main]
     A, b, index, q = _pairs(V, D, marks)
     moved = D @ A.T + b
