@@ -131,6 +131,7 @@ def _solve(Q, Z, rim, index, targets, *, weight, pair_weights) -> np.ndarray:
     import scipy.sparse as sp
 
     from ._sparse import spd_factor
+    from .polish import _rim_basis
 
     n = len(Z)
     # The offset d = c + P s: interior vertices keep both unknowns, a rim vertex one (along
@@ -138,16 +139,7 @@ def _solve(Q, Z, rim, index, targets, *, weight, pair_weights) -> np.ndarray:
     # up to its discretization, and the least-energy map of this mesh differs from it (the
     # rim alone, left to slide, moves by 0.2); a zero offset bends nothing.
     rim = np.unique(np.asarray(rim, dtype=np.int64))
-    on_rim = np.zeros(n, dtype=bool)
-    on_rim[rim] = True
-    inner = np.flatnonzero(~on_rim)
-    k_in = len(inner)
-    p = Z[rim] / np.linalg.norm(Z[rim], axis=1, keepdims=True)
-    rows = np.concatenate([inner, n + inner, rim, n + rim])
-    cols = np.concatenate([np.arange(k_in), k_in + np.arange(k_in),
-                           2 * k_in + np.arange(len(rim)), 2 * k_in + np.arange(len(rim))])
-    vals = np.concatenate([np.ones(2 * k_in), -p[:, 1], p[:, 0]])
-    P = sp.csr_matrix((vals, (rows, cols)), shape=(2 * n, 2 * k_in + len(rim)))
+    P = _rim_basis(Z, rim)
     index = np.asarray(index, dtype=np.int64)
     w = weight * float(Q.diagonal().mean())
     pw = np.ones(len(index)) if pair_weights is None else np.asarray(pair_weights, float)
