@@ -37,7 +37,7 @@ SHARED_OPEN = ("face_human_choi", "face_3holes_small_choi", "peaks_7holes_choi",
 HEAD = "closed_david_head_choi"
 
 
-def _today_repair(X, normals, faces, *, exclude=None, spacing=None, dropped=None):
+def _today_repair(X, normals, faces, *, exclude=None, spacing=None, dropped=None, cloud=None):
     """The repair's measurement alone: today's faces, their topology."""
     from pcgeom.maps import topology as tp
 

@@ -401,7 +401,9 @@ def twins(F: np.ndarray) -> tuple[np.ndarray, bool]:
     # The half-edges sorted by their undirected edge: each edge's two halves side by side
     # (one sort, no search), when no edge has more than two and those two run opposite.
     ukey = np.minimum(H[:, 0], H[:, 1]) * n + np.maximum(H[:, 0], H[:, 1])
-    order = np.argsort(ukey)
+    # (A stable sort: the halves come in runs of the faces' order, which it takes as they
+    # are, several times faster than numpy's default; any order pairs the same halves.)
+    order = np.argsort(ukey, kind="stable")
     pair = np.flatnonzero(ukey[order[1:]] == ukey[order[:-1]])
     first, second = order[pair], order[pair + 1]
     if not ((pair[1:] == pair[:-1] + 1).any() or (H[first, 0] == H[second, 0]).any()):

@@ -59,6 +59,9 @@ class Neighbours:
     """(N, k + 1) float64: distances, ascending; column 0 (the point itself) is 0."""
     index: np.ndarray
     """(N, k + 1) int64: the neighbours' rows; column 0 is the row itself."""
+    tree: object = None
+    """The k-d tree (scipy's cKDTree) of the points queried, when :meth:`of` built it (the
+    local mesh's repair queries it again, :func:`pcgeom.maps.topology.repair`)."""
 
     @classmethod
     def of(cls, X, k: int) -> "Neighbours":
@@ -67,8 +70,9 @@ class Neighbours:
         from scipy.spatial import cKDTree
 
         X = np.asarray(X, dtype=np.float64)
-        dist, index = cKDTree(X).query(X, min(int(k), len(X) - 1) + 1, workers=_workers())
-        return cls(dist.reshape(len(X), -1), index.reshape(len(X), -1))
+        tree = cKDTree(X)
+        dist, index = tree.query(X, min(int(k), len(X) - 1) + 1, workers=_workers())
+        return cls(dist.reshape(len(X), -1), index.reshape(len(X), -1), tree)
 
     @property
     def k(self) -> int:

@@ -67,6 +67,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import cross3, half_edges as _directed, successor_walks, twins
+from .topology_batch import Corners
 
 __all__ = ["refill_small_loops"]
 
@@ -179,7 +180,7 @@ def _pinches(edges: np.ndarray) -> np.ndarray:
 
 
 def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
-                       bound: float, exclude: np.ndarray | None = None
+                       bound: float, exclude: np.ndarray | None = None, *, cloud=None
                        ) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with its small boundary loops (no longer than a circle of
     :data:`REFILL_LOOP` times ``bound``, or :data:`REFILL_SHORT`, local spacings ``h``)
@@ -198,6 +199,8 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         The widest triangle (enclosing radius in local spacings) a fill may have.
     exclude : (N,) bool, optional
         Points no fill may use.
+    cloud : scipy.spatial.cKDTree, optional
+        The k-d tree of the points not excluded (``X[~exclude]``), when already built.
     """
     from scipy.spatial import cKDTree
 
@@ -211,7 +214,8 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
     # changed: no point in its ball re-meshed, and the loops that stopped it the same.
     failed: dict = {}
     touched = None
-    trees: dict = {}  # "cloud": a cKDTree of the points not excluded, built when first needed
+    # "cloud": a cKDTree of the points not excluded, built when first needed
+    trees: dict = {} if cloud is None else {"cloud": cloud}
 
     def cloud():
         if "cloud" not in trees:
@@ -219,15 +223,28 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                                      else X[~np.asarray(exclude, dtype=bool)])
         return trees["cloud"]
 
+    def _flat_fill(loop: np.ndarray, inside: np.ndarray, inner: np.ndarray):
+        """The fill of a region's rim ``loop`` over ``inner`` that uses every point
+        ``inside``, flat and no wider than the sampling leaves; None when there is none (the
+        module's tests that do not depend on the mesh round it)."""
+        # (A fill of the loop alone leaves the points inside out: no re-mesh.)
+        F = fill_loop(X, normals, loop, inner, loop_alone=not len(inside))
+        if F is None or not np.isin(inside, F).all() or not _faces_normals(X, normals, F):
+            return None
+        width = enclosing_radius(X, F) / np.maximum(h[F].mean(axis=1), 1e-300)
+        empty = _empty_radius(X, F, cloud()) / np.maximum(h[F].mean(axis=1), 1e-300)
+        if max(float(width.max()), float(empty.max())) > REFILL_WIDTH * bound:
+            return None
+        return F
+
+    fitted: dict = {}  # _flat_fill's, by its arguments
     for _ in range(REFILL_ROUNDS):
         if not len(faces):
             break
         m = len(faces)
-        H = _directed(faces)  # (3M, 2)
-        hkey = H[:, 0] * n + H[:, 1]
-        horder = np.argsort(hkey)
-        hsorted = hkey[horder]
-        rim, walks = rim_walks(faces, twins(faces)[0])
+        halves: dict = {}  # the half-edges' keys a * N + b sorted, and their order, when needed
+        twin = twins(faces)[0]
+        rim, walks = rim_walks(faces, twin)
         perimeter = np.linalg.norm(X[rim[:, 1]] - X[rim[:, 0]], axis=1)
         spacing = _walk_medians(h[rim[:, 0]], walks)
         walk_keys = [frozenset(rim[w, 0].tolist()) for w in walks]
@@ -249,11 +266,14 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         walk_of = np.full(len(rim), -1, dtype=np.int64)
         for k, (_, w, _) in enumerate(small):
             walk_of[w] = k
-        rim_key = rim[:, 0] * n + rim[:, 1]
-        rim_order = np.argsort(rim_key)
-        corner = faces.T.ravel()  # corner slot * m + tri is faces[tri, slot]
-        corder = np.argsort(corner)  # (tris_at sorts each vertex's triangles)
-        cstart = np.searchsorted(corner[corder], np.arange(n + 1))
+        # The small loop and the walk of each half-edge on the boundary (rim_walks' rows are
+        # the half-edges with no twin, in order), -1 elsewhere.
+        boundary = np.flatnonzero(twin < 0)
+        small_of = np.full(3 * m, -1, dtype=np.int64)
+        small_of[boundary] = walk_of
+        walk_of_half = np.full(3 * m, -1, dtype=np.int64)
+        walk_of_half[boundary] = walk_id
+        corners = Corners(faces, n)
         used = np.zeros(n, dtype=bool)
         used[faces.ravel()] = True
         if exclude is not None:
@@ -263,13 +283,18 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         busy = np.zeros(m, dtype=bool)
         fills, added_edges = [], set()
 
-        def tris_at(vertices: np.ndarray) -> np.ndarray:
-            parts = [corder[cstart[v]:cstart[v + 1]] % m for v in vertices.tolist()]
-            return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+        tris_at = corners.triangles
+
+        def sorted_halves() -> tuple[np.ndarray, np.ndarray]:
+            if not halves:
+                H = _directed(faces)  # (3M, 2)
+                hkey = H[:, 0] * n + H[:, 1]
+                horder = np.argsort(hkey, kind="stable")  # (runs of the faces' order: fast)
+                halves.update(sorted=hkey[horder], order=horder)
+            return halves["sorted"], halves["order"]
 
         def has_half(keys: np.ndarray) -> np.ndarray:
-            at = np.minimum(np.searchsorted(hsorted, keys), len(hsorted) - 1)
-            return hsorted[at] == keys
+            return corners.has_half(keys // n, keys % n)
 
         def region_fill(k: int, rings: int):
             """The re-mesh of small loop ``k``'s neighbourhood: (triangles gone, fill, loops
@@ -285,17 +310,13 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                 if busy[T].any():
                     looked[k] = (None, frozenset())  # waits for the next round
                     return False
-                D = _directed(faces[T])
-                twin = D[:, 1] * n + D[:, 0]
-                own = np.sort(D[:, 0] * n + D[:, 1])  # (np.isin, by a search)
-                inT = own[np.minimum(np.searchsorted(own, twin), len(own) - 1)] == twin
-                open_ = ~has_half(twin)  # on the mesh's boundary
-                # The boundary half-edges of T (the faces' own, whose twins are absent).
-                keys = D[open_ & ~inT, 0] * n + D[open_ & ~inT, 1]
-                at = np.minimum(np.searchsorted(rim_key[rim_order], keys), len(rim) - 1)
-                owners = walk_of[rim_order[at]]
+                # T's half-edges, slot * m + T (the rows of _directed(faces[T])), and those
+                # on the mesh's boundary (no twin; none of them has its twin in T).
+                half = (np.arange(3)[:, None] * m + T[None, :]).ravel()
+                open_ = twin[half] < 0
+                owners = small_of[half[open_]]
                 if (owners < 0).any():
-                    stop = walk_id[rim_order[at][owners < 0]]
+                    stop = walk_of_half[half[open_][owners < 0]]
                     looked[k] = (T if (stop >= 0).all() else None,
                                  frozenset(walk_keys[i] for i in stop.tolist() if i >= 0))
                     return False  # a rim or a hole of the surface, or a wide loop
@@ -305,6 +326,10 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                     T = np.union1d(T, tris_at(np.unique(rim[np.concatenate(
                         [small[j][1] for j in extra])])))
                     continue
+                D = _directed(faces[T])
+                back = D[:, 1] * n + D[:, 0]
+                own = np.sort(D[:, 0] * n + D[:, 1])  # (np.isin, by a search)
+                inT = own[np.minimum(np.searchsorted(own, back), len(own) - 1)] == back
                 outer = D[~open_ & ~inT]
                 loop = _cycle(outer[:, ::-1])
                 if loop is not None:
@@ -332,18 +357,11 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                 reach = float(np.linalg.norm(X[loop] - centre, axis=1).max())
                 near = free[np.asarray(tree.query_ball_point(centre, reach), dtype=np.int64)]
                 inner = np.concatenate([inside, near])
-            # (A fill of the loop alone leaves the points inside out: no re-mesh.)
-            F = fill_loop(X, normals, loop, inner, loop_alone=not len(inside))
+            key = (loop.tobytes(), inside.tobytes(), inner.tobytes())
+            if key not in fitted:  # (the same region, met again: its fill and tests again)
+                fitted[key] = _flat_fill(loop, inside, inner)
+            F = fitted[key]
             if F is None:
-                return None
-            if not np.isin(inside, F).all():
-                return None
-            if not _faces_normals(X, normals, F):
-                return None
-            width = enclosing_radius(X, F) / np.maximum(h[F].mean(axis=1), 1e-300)
-            empty = _empty_radius(X, F, cloud()) / np.maximum(h[F].mean(axis=1), 1e-300)
-            wide = max(float(width.max()), float(empty.max()))
-            if wide > REFILL_WIDTH * bound:
                 return None
             # No edge of the fill inside the region may be an edge of the mesh outside it.
             E = np.sort(_directed(F), axis=1)
@@ -380,6 +398,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         for k in range(len(small) if REFILL_EARS else 0):
             if k in done:
                 continue
+            hsorted, horder = sorted_halves()
             got = _ear_fill(X, normals, faces, rim[small[k][1]], hsorted=hsorted, horder=horder)
             if got is None or busy[got[0]].any():
                 continue

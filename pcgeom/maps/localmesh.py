@@ -430,10 +430,10 @@ def local_mesh(X: np.ndarray, normals: np.ndarray, neighbours: int = 24, *,
     dropped: list = []
     if bridges:
         faces, topology = cut_bridges(X, normals, faces, repair, exclude=exclude,
-                                      spacing=spacing, dropped=dropped)
+                                      spacing=spacing, dropped=dropped, cloud=knn.tree)
     else:
         faces, topology = repair(X, normals, faces, exclude=exclude, spacing=spacing,
-                                 dropped=dropped)
+                                 dropped=dropped, cloud=knn.tree)
     main = main_part(faces, n)
     boundary = int(edge_sides(faces)[1].sum())
     return LocalMesh(faces=faces, main=main, boundary_edges=boundary, candidates=n_candidates,

@@ -75,7 +75,8 @@ radius (in local spacings), or of :data:`pcgeom.maps.fills.REFILL_SHORT` spacing
 
 
 def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
-                 bound: float, exclude: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+                 bound: float, exclude: np.ndarray | None = None, *, cloud=None
+                 ) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with the small loops held open at pinched vertices closed
     (the module's rule), and how many fans were taken off for a fill.
 
@@ -91,6 +92,8 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         The widest triangle (enclosing radius in local spacings) the sampling leaves.
     exclude : (N,) bool, optional
         Points no fill may use.
+    cloud : scipy.spatial.cKDTree, optional
+        The k-d tree of the points not excluded (``X[~exclude]``), when already built.
     """
     from scipy.spatial import cKDTree
 
@@ -101,7 +104,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
     faces = np.asarray(faces, dtype=np.int64)
     mended = 0
     reach = max(PINCH_LOOP * bound, REFILL_SHORT)
-    trees: dict = {}
+    trees: dict = {} if cloud is None else {"cloud": cloud}  # (before cloud() below)
 
     def cloud():  # a cKDTree of the points not excluded, built when first needed
         if "cloud" not in trees:

@@ -61,7 +61,7 @@ from ..mesh import (corner_fans, cross3, drop_smaller_fans, face_keys, fan_count
                     half_edges as _directed, twins)
 from .fills import refill_small_loops
 from .pinches import mend_pinches
-from .topology_batch import edge_keys, main_faces, sub_twins, triage
+from .topology_batch import CloudTree, add_fills, edge_keys, main_faces, sub_twins, triage
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
 
@@ -325,10 +325,11 @@ def enclosing_radius(X: np.ndarray, F: np.ndarray) -> np.ndarray:
     """(M,) radius of each triangle's smallest enclosing circle: its circumradius when it is
     acute, half its longest edge otherwise (an obtuse sliver's circumcircle is no empty circle
     of the surface)."""
-    e = np.stack([((X[F[:, (q + 1) % 3]] - X[F[:, (q + 2) % 3]]) ** 2).sum(axis=1)
+    P = X[F]  # (M, 3, 3): one gather
+    e = np.stack([((P[:, (q + 1) % 3] - P[:, (q + 2) % 3]) ** 2).sum(axis=1)
                   for q in range(3)], axis=1)
     longest = e.max(axis=1)
-    area2 = np.linalg.norm(cross3(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]), axis=1)
+    area2 = np.linalg.norm(cross3(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
     circum = np.sqrt(e.prod(axis=1)) / np.maximum(2.0 * area2, 1e-300)
     obtuse = 2.0 * longest >= e.sum(axis=1)
     return np.where(obtuse, 0.5 * np.sqrt(longest), circum)
@@ -559,7 +560,7 @@ def widest_empty(widths: np.ndarray) -> float:
 
 def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
            exclude: np.ndarray | None = None, spacing: np.ndarray | None = None,
-           dropped: list | None = None) -> tuple[np.ndarray, Topology]:
+           dropped: list | None = None, cloud=None) -> tuple[np.ndarray, Topology]:
     """The local mesh with the surface's holes opened and the holes its sampling can leave
     filled (steps 1-2 of the module), and the topology of the result.
 
@@ -575,6 +576,9 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
         Points no fill may use (strays).
     spacing : (N,) float64, optional
         Each point's local spacing (:func:`knn_spacing`), when already known.
+    cloud : scipy.spatial.cKDTree, optional
+        The k-d tree of the points not excluded (``X[~exclude]``, in order), when already
+        built (:attr:`pcgeom.neighbours.Neighbours.tree`); the fills' tests query it.
 
     Returns
     -------
@@ -589,6 +593,7 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
     n = len(X)
     found: dict = {}
     before, pinched_before = _measure(faces, found)
+    trees = CloudTree(X, exclude, cloud)
     filled = 0
     if len(faces):
         h = knn_spacing(X) if spacing is None else np.asarray(spacing, dtype=np.float64)
@@ -608,15 +613,17 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
                     faces, loops = kept, simple_loops(kept)
             faces, filled, _, _ = _fill_pass(X, normals, faces, h, bound, exclude, loops=loops,
                                              empty=PINCH_EMPTY if PINCH_FANS else None,
-                                             found=None if PINCH_FANS else found)
-            faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude)
+                                             found=None if PINCH_FANS else found, cloud=trees)
+            faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude,
+                                                 cloud=trees.built)
             filled += refilled
             if PINCH_MEND:
-                faces, mended = mend_pinches(X, normals, faces, h, bound, exclude)
+                faces, mended = mend_pinches(X, normals, faces, h, bound, exclude,
+                                             cloud=trees.built)
                 filled += mended
             return faces, _topology(before, pinched_before, *_measure(faces), filled, 0)
         faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude,
-                                                loops=loops, found=found)
+                                                loops=loops, found=found, cloud=trees)
         if len(stuck) or long:
             # Loops left that no flat fill closes: the mesh overlaps itself there (noise,
             # uneven sampling), on what may be a closed surface. Their points' triangles go
@@ -628,7 +635,8 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
                 near[stuck] = True
                 trial = trial[~near[trial].any(axis=1)]
                 trial, more, stuck, long = _fill_pass(X, normals, trial, h, GROW_LOOP * bound,
-                                                      exclude, folds=True, grow=np.inf)
+                                                      exclude, folds=True, grow=np.inf,
+                                                      cloud=trees)
                 added += more
                 if not (more or len(stuck)):  # (two fills of one pass may share an edge)
                     break
@@ -668,8 +676,8 @@ def _has_long_loop(X: np.ndarray, loops: list[np.ndarray], h: np.ndarray, radius
 def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
                bound: float, exclude: np.ndarray | None, *, folds: bool = False,
                grow: float = 1.0, loops: list[np.ndarray] | None = None,
-               empty: float | None = None, found: dict | None = None
-               ) -> tuple[np.ndarray, int, np.ndarray, int]:
+               empty: float | None = None, found: dict | None = None,
+               cloud: CloudTree | None = None) -> tuple[np.ndarray, int, np.ndarray, int]:
     """One pass of step 1's fills over the loops of ``faces``: the faces with the fills, how
     many, and the points of the loops that the sampling can leave (no longer than a circle
     of radius ``grow * bound`` spacings) but that no fill closes (every fill folds, unless
@@ -677,7 +685,8 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
     ``loops``: ``simple_loops(faces)``, when already found. ``empty``: a fill is kept only
     when no triangle of it leaves an empty circle round its circumcentre wider than this
     times ``bound`` (as the re-mesh's rule, :data:`pcgeom.maps.fills.REFILL_WIDTH`).
-    ``found``: :func:`_measure`'s of ``faces``, when measured."""
+    ``found``: :func:`_measure`'s of ``faces``, when measured. ``cloud``: the tree of the
+    points not excluded, when at hand."""
     from scipy.spatial import cKDTree
 
     n = len(X)
@@ -689,8 +698,10 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
     tree = cKDTree(X[free]) if len(free) else None
     edges = edge_keys(faces, n, found)
 
-    meshed = np.flatnonzero(np.bincount(faces.ravel(), minlength=n) > 0)
+    is_meshed = np.bincount(faces.ravel(), minlength=n) > 0
+    meshed = np.flatnonzero(is_meshed)
     trees: dict = {}  # built when first needed
+    cloud = CloudTree(X, exclude) if cloud is None else cloud
 
     def narrow(F: np.ndarray) -> bool:
         radius = enclosing_radius(X, F)
@@ -699,19 +710,20 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
         if empty is not None:
             from .fills import _empty_radius
 
-            if "cloud" not in trees:
-                trees["cloud"] = cKDTree(X if exclude is None
-                                         else X[~np.asarray(exclude, dtype=bool)])
-            gap = _empty_radius(X, F, trees["cloud"]) / np.maximum(h[F].mean(axis=1), 1e-300)
+            gap = _empty_radius(X, F, cloud.tree) / np.maximum(h[F].mean(axis=1), 1e-300)
             if float(gap.max()) > empty * bound:
                 return False
         # A fill over meshed points is a second sheet over the surface (a cap over a small
         # patch's rim), not a hole's: a few meshed points near its triangles at most (where
         # the mesh overlaps itself round a small hole), not a patch of them.
-        if "mesh" not in trees:
-            trees["mesh"] = cKDTree(X[meshed])
-        near = trees["mesh"].query_ball_point(X[F].mean(axis=1), 0.5 * radius)
-        under = set().union(*(meshed[k].tolist() for k in near)) - set(F.ravel().tolist())
+        # (The meshed points through the cloud's tree, when it holds them all.)
+        under = cloud.meshed_near(X[F].mean(axis=1), 0.5 * radius, is_meshed)
+        if under is None:
+            if "mesh" not in trees:
+                trees["mesh"] = cKDTree(X[meshed])
+            near = trees["mesh"].query_ball_point(X[F].mean(axis=1), 0.5 * radius)
+            under = set().union(*(meshed[k].tolist() for k in near))
+        under -= set(F.ravel().tolist())
         return len(under) <= max(2, len(np.unique(F)) // 4)
 
     fills, stuck, long = [], [], 0
@@ -743,31 +755,9 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
             long += 1
     added = 0
     if fills:
-        faces, added = _add_fills(faces, fills)
+        faces, added = add_fills(faces, fills)
     return (faces, added, np.concatenate(stuck) if stuck else np.zeros(0, dtype=np.int64),
             long)
-
-
-def _add_fills(faces: np.ndarray, fills: list[np.ndarray]) -> tuple[np.ndarray, int]:
-    """``faces`` with the fills whose directed edges are taken by no triangle before them
-    (the mesh's, then the earlier fills'); how many fills were added."""
-    n = int(max(faces.max(), max(F.max() for F in fills))) + 1
-    mesh_keys = np.sort((lambda D: D[:, 0] * n + D[:, 1])(_directed(faces)))
-    taken: set = set()  # the earlier fills'
-    kept = []
-    for F in fills:
-        D = _directed(F)
-        keys = D[:, 0] * n + D[:, 1]
-        at = np.minimum(np.searchsorted(mesh_keys, keys), len(mesh_keys) - 1)
-        if (mesh_keys[at] == keys).any():
-            continue
-        keys = keys.tolist()
-        if taken.isdisjoint(keys) and len(set(keys)) == len(keys):
-            taken.update(keys)
-            kept.append(F)
-    if not kept:
-        return faces, 0
-    return np.concatenate([faces, *kept]), len(kept)
 
 
 # --------------------------------------------------------------------------- refusal
