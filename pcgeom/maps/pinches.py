@@ -49,6 +49,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import fan_counts, half_edges as _directed, twins
+from .topology_batch import Corners
 
 __all__ = ["mend_pinches"]
 
@@ -141,9 +142,8 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         if not len(tried):
             break
         H = _directed(faces)
-        hkey = np.sort(H[:, 0] * n + H[:, 1])
-        corner = np.argsort(vertex, kind="stable")
-        cstart = np.searchsorted(vertex[corner], np.arange(n + 1))
+        corners = Corners(faces, n)  # (its radix sort; no sort of every half-edge)
+        corner, cstart = corners.order, corners.start
         used = np.zeros(n, dtype=bool)
         used[vertex] = True
         if exclude is not None:
@@ -160,8 +160,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
             return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
 
         def has_half(keys: np.ndarray) -> np.ndarray:
-            at = np.minimum(np.searchsorted(hkey, keys), len(hkey) - 1)
-            return hkey[at] == keys
+            return corners.has_half(keys // n, keys % n)
 
         def attempt(v: int, T_off: np.ndarray):
             """Take the triangles ``T_off`` (a fan at ``v``) off: the fills of the loops
