@@ -65,7 +65,9 @@ to 60 degrees off on the mouth's walls. With its true normals the rule,
 now with the triangles that turn from their normals dropped first
 (:func:`pcgeom.maps.bridges.disagreeing`), gives 0.90x / 1.23x / 1.01x LSCM, 0.87 / 0.83 /
 0.68% flipped at 11k, seeds 0-2; without the drop 1.23x / 2.09x / 1.22x, 0.92 / 1.09 /
-0.81%.)"""
+0.81%.) A bare cloud whose kept mesh has handles gets its normals signed again as a whole
+and a mesh with its bridges cut (:data:`pcgeom.maps.free.ARC_ORIENT`), kept when it maps
+better."""
 
 PLACE_WITH_INPUT_NORMALS = True
 """The free map places the points outside the local mesh's main part by an affine fit to
