@@ -180,8 +180,8 @@ def _pinches(edges: np.ndarray) -> np.ndarray:
 
 
 def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
-                       bound: float, exclude: np.ndarray | None = None, *, cloud=None
-                       ) -> tuple[np.ndarray, int]:
+                       bound: float, exclude: np.ndarray | None = None, *, cloud=None,
+                       twins_of=twins) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with its small boundary loops (no longer than a circle of
     :data:`REFILL_LOOP` times ``bound``, or :data:`REFILL_SHORT`, local spacings ``h``)
     closed by a flat re-mesh of their neighbourhood, or by a flat fill once their ears go
@@ -201,6 +201,9 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         Points no fill may use.
     cloud : scipy.spatial.cKDTree, optional
         The k-d tree of the points not excluded (``X[~exclude]``), when already built.
+    twins_of : callable
+        :func:`pcgeom.mesh.twins`, or one that knows those of faces it has seen
+        (:class:`pcgeom.maps.topology_batch.KnownTwins`).
     """
     from scipy.spatial import cKDTree
 
@@ -243,7 +246,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             break
         m = len(faces)
         halves: dict = {}  # the half-edges' keys a * N + b sorted, and their order, when needed
-        twin = twins(faces)[0]
+        twin = twins_of(faces)[0]
         rim, walks = rim_walks(faces, twin)
         perimeter = np.linalg.norm(X[rim[:, 1]] - X[rim[:, 0]], axis=1)
         spacing = _walk_medians(h[rim[:, 0]], walks)

@@ -76,8 +76,8 @@ radius (in local spacings), or of :data:`pcgeom.maps.fills.REFILL_SHORT` spacing
 
 
 def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
-                 bound: float, exclude: np.ndarray | None = None, *, cloud=None
-                 ) -> tuple[np.ndarray, int]:
+                 bound: float, exclude: np.ndarray | None = None, *, cloud=None,
+                 twins_of=twins) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with the small loops held open at pinched vertices closed
     (the module's rule), and how many fans were taken off for a fill.
 
@@ -95,6 +95,9 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         Points no fill may use.
     cloud : scipy.spatial.cKDTree, optional
         The k-d tree of the points not excluded (``X[~exclude]``), when already built.
+    twins_of : callable
+        :func:`pcgeom.mesh.twins`, or one that knows those of faces it has seen
+        (:class:`pcgeom.maps.topology_batch.KnownTwins`).
     """
     from scipy.spatial import cKDTree
 
@@ -118,7 +121,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         if not len(faces):
             break
         m = len(faces)
-        twin, consistent = twins(faces)
+        twin, consistent = twins_of(faces)
         if not consistent:
             break
         vertex = faces.T.ravel()

@@ -61,7 +61,8 @@ from ..mesh import (corner_fans, cross3, drop_smaller_fans, face_keys, fan_count
                     half_edges as _directed, twins)
 from .fills import refill_small_loops
 from .pinches import mend_pinches
-from .topology_batch import CloudTree, add_fills, edge_keys, main_faces, sub_twins, triage
+from .topology_batch import (CloudTree, KnownTwins, add_fills, edge_keys, main_faces, sub_twins,
+                             triage)
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
 
@@ -166,7 +167,8 @@ def measure(faces: np.ndarray) -> dict:
     return _measure(faces)[0]
 
 
-def _measure(faces: np.ndarray, found: dict | None = None) -> tuple[dict, np.ndarray]:
+def _measure(faces: np.ndarray, found: dict | None = None, twins_of=twins
+             ) -> tuple[dict, np.ndarray]:
     """Euler characteristic, boundary loops, genus, parts and pinched vertices of the largest
     part of the mesh ``faces`` (M, 3) (edge-manifold, consistently oriented), its pinched
     vertices split (each open fan its own vertex, as libigl's ``split_nonmanifold``).
@@ -182,7 +184,7 @@ def _measure(faces: np.ndarray, found: dict | None = None) -> tuple[dict, np.nda
     if len(faces) == 0:
         return {"euler": 0, "boundary_loops": 0, "genus": 0, "components": 0, "vertices": 0,
                 "faces": 0, "pinched": 0}, np.zeros(0, dtype=bool)
-    twin, consistent = twins(faces)
+    twin, consistent = twins_of(faces)  # (twins_of: twins, or a KnownTwins' of)
     if found is not None:
         found.update(twin=twin, consistent=consistent)
     main, parts, kept = main_faces(faces, twin if consistent else None)
@@ -592,7 +594,8 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
     faces = np.asarray(faces, dtype=np.int64)
     n = len(X)
     found: dict = {}
-    before, pinched_before = _measure(faces, found)
+    known = KnownTwins()  # (each step's twins found once)
+    before, pinched_before = _measure(faces, found, known.of)
     trees = CloudTree(X, exclude, cloud)
     filled = 0
     if len(faces):
@@ -615,13 +618,14 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
                                              empty=PINCH_EMPTY if PINCH_FANS else None,
                                              found=None if PINCH_FANS else found, cloud=trees)
             faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude,
-                                                 cloud=trees.built)
+                                                 cloud=trees.built, twins_of=known.of)
             filled += refilled
             if PINCH_MEND:
                 faces, mended = mend_pinches(X, normals, faces, h, bound, exclude,
-                                             cloud=trees.built)
+                                             cloud=trees.built, twins_of=known.of)
                 filled += mended
-            return faces, _topology(before, pinched_before, *_measure(faces), filled, 0)
+            return faces, _topology(before, pinched_before, *_measure(faces, None, known.of),
+                                    filled, 0)
         faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude,
                                                 loops=loops, found=found, cloud=trees)
         if len(stuck) or long:

@@ -29,10 +29,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh import cross3, face_parts, half_edges
+from ..mesh import cross3, face_parts, half_edges, twins
 
 __all__ = ["loop_figures", "least_area_folds", "triage", "main_faces", "sub_twins", "edge_keys",
-           "stable_order", "Corners", "CloudTree", "add_fills"]
+           "stable_order", "Corners", "CloudTree", "add_fills", "KnownTwins"]
 
 
 def loop_figures(X: np.ndarray, h: np.ndarray, loops: list[np.ndarray]
@@ -281,3 +281,18 @@ def add_fills(faces: np.ndarray, fills: list[np.ndarray]) -> tuple[np.ndarray, i
     if not kept:
         return faces, 0
     return np.concatenate([faces, *kept]), len(kept)
+
+
+class KnownTwins:
+    """:func:`pcgeom.mesh.twins` of the faces array last asked about, kept while the same
+    array (the same object: the repair's steps return their input when they change nothing)
+    is asked about again."""
+
+    def __init__(self):
+        self._faces = None
+        self._found = None
+
+    def of(self, faces: np.ndarray) -> tuple[np.ndarray, bool]:
+        if faces is not self._faces:
+            self._faces, self._found = faces, twins(faces)
+        return self._found
