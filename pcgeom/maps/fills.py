@@ -67,7 +67,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import cross3, half_edges as _directed, successor_walks, twins
-from .topology_batch import Corners
+from .topology_batch import CloudTree, Corners
 
 __all__ = ["refill_small_loops"]
 
@@ -199,8 +199,9 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         The widest triangle (enclosing radius in local spacings) a fill may have.
     exclude : (N,) bool, optional
         Points no fill may use.
-    cloud : scipy.spatial.cKDTree, optional
-        The k-d tree of the points not excluded (``X[~exclude]``), when already built.
+    cloud : pcgeom.maps.topology_batch.CloudTree, optional
+        The points not excluded (``X[~exclude]``) and their k-d tree, built when first needed
+        and shared with the caller's other steps (the repair's own).
     twins_of : callable
         :func:`pcgeom.mesh.twins`, or one that knows those of faces it has seen
         (:class:`pcgeom.maps.topology_batch.KnownTwins`).
@@ -217,14 +218,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
     # changed: no point in its ball re-meshed, and the loops that stopped it the same.
     failed: dict = {}
     touched = None
-    # "cloud": a cKDTree of the points not excluded, built when first needed
-    trees: dict = {} if cloud is None else {"cloud": cloud}
-
-    def cloud():
-        if "cloud" not in trees:
-            trees["cloud"] = cKDTree(X if exclude is None
-                                     else X[~np.asarray(exclude, dtype=bool)])
-        return trees["cloud"]
+    cloud = CloudTree(X, exclude) if cloud is None else cloud  # its tree built when first needed
 
     def _flat_fill(loop: np.ndarray, inside: np.ndarray, inner: np.ndarray):
         """The fill of a region's rim ``loop`` over ``inner`` that uses every point
@@ -235,7 +229,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         if F is None or not np.isin(inside, F).all() or not _faces_normals(X, normals, F):
             return None
         width = enclosing_radius(X, F) / np.maximum(h[F].mean(axis=1), 1e-300)
-        empty = _empty_radius(X, F, cloud()) / np.maximum(h[F].mean(axis=1), 1e-300)
+        empty = _empty_radius(X, F, cloud.tree) / np.maximum(h[F].mean(axis=1), 1e-300)
         if max(float(width.max()), float(empty.max())) > REFILL_WIDTH * bound:
             return None
         return F
@@ -408,7 +402,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
             ear, F = got
             if not _faces_normals(X, normals, F):
                 continue
-            width = np.maximum(enclosing_radius(X, F), _empty_radius(X, F, cloud())
+            width = np.maximum(enclosing_radius(X, F), _empty_radius(X, F, cloud.tree)
                                ) / np.maximum(h[F].mean(axis=1), 1e-300)
             E = np.sort(_directed(F), axis=1)
             ek, ec = np.unique(E[:, 0] * n + E[:, 1], return_counts=True)

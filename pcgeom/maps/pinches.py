@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import fan_counts, half_edges as _directed, twins
-from .topology_batch import Corners
+from .topology_batch import CloudTree, Corners
 
 __all__ = ["mend_pinches"]
 
@@ -93,8 +93,9 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         The widest triangle (enclosing radius in local spacings) the sampling leaves.
     exclude : (N,) bool, optional
         Points no fill may use.
-    cloud : scipy.spatial.cKDTree, optional
-        The k-d tree of the points not excluded (``X[~exclude]``), when already built.
+    cloud : pcgeom.maps.topology_batch.CloudTree, optional
+        The points not excluded (``X[~exclude]``) and their k-d tree, built when first needed
+        and shared with the caller's other steps (the repair's own).
     twins_of : callable
         :func:`pcgeom.mesh.twins`, or one that knows those of faces it has seen
         (:class:`pcgeom.maps.topology_batch.KnownTwins`).
@@ -108,13 +109,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
     faces = np.asarray(faces, dtype=np.int64)
     mended = 0
     reach = max(PINCH_LOOP * bound, REFILL_SHORT)
-    trees: dict = {} if cloud is None else {"cloud": cloud}  # (before cloud() below)
-
-    def cloud():  # a cKDTree of the points not excluded, built when first needed
-        if "cloud" not in trees:
-            trees["cloud"] = cKDTree(X if exclude is None
-                                     else X[~np.asarray(exclude, dtype=bool)])
-        return trees["cloud"]
+    cloud = CloudTree(X, exclude) if cloud is None else cloud  # its tree built when first needed
 
     again = None  # after a round: the points whose tries may go otherwise now
     for _ in range(PINCH_ROUNDS):
@@ -216,7 +211,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
                         return None
                     if not _faces_normals(X, normals, G):
                         return None
-                    width = np.maximum(enclosing_radius(X, G), _empty_radius(X, G, cloud())
+                    width = np.maximum(enclosing_radius(X, G), _empty_radius(X, G, cloud.tree)
                                        ) / np.maximum(h[G].mean(axis=1), 1e-300)
                     if float(width.max()) > PINCH_WIDTH * bound:
                         return None
@@ -230,7 +225,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
             # a hole of the surface that the mesh's long triangles span but for this loop.
             R = faces[np.setdiff1d(tris_at(np.unique(G)), T_off)]
             if len(R):
-                gap = _empty_radius(X, R, cloud()) / np.maximum(h[R].mean(axis=1), 1e-300)
+                gap = _empty_radius(X, R, cloud.tree) / np.maximum(h[R].mean(axis=1), 1e-300)
                 if float(gap.max()) > PINCH_WIDTH * bound:
                     return None
             D = _directed(G)

@@ -589,8 +589,6 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
         consistently oriented).
     Topology
     """
-    from scipy.spatial import cKDTree
-
     faces = np.asarray(faces, dtype=np.int64)
     n = len(X)
     found: dict = {}
@@ -618,11 +616,11 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
                                              empty=PINCH_EMPTY if PINCH_FANS else None,
                                              found=None if PINCH_FANS else found, cloud=trees)
             faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude,
-                                                 cloud=trees.built, twins_of=known.of)
+                                                 cloud=trees, twins_of=known.of)
             filled += refilled
             if PINCH_MEND:
                 faces, mended = mend_pinches(X, normals, faces, h, bound, exclude,
-                                             cloud=trees.built, twins_of=known.of)
+                                             cloud=trees, twins_of=known.of)
                 filled += mended
             return faces, _topology(before, pinched_before, *_measure(faces, None, known.of),
                                     filled, 0)
