@@ -67,7 +67,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import cross3, half_edges as _directed, successor_walks, twins
-from .topology_batch import CloudTree, Corners
+from .topology_batch import CloudTree, Corners, FillMemo
 
 __all__ = ["refill_small_loops"]
 
@@ -161,10 +161,21 @@ def _empty_radius(X: np.ndarray, F: np.ndarray, cloud) -> np.ndarray:
 
 def _faces_normals(X: np.ndarray, normals: np.ndarray, F: np.ndarray) -> bool:
     """Whether each triangle of ``F`` is within :data:`REFILL_TURN` of each corner's normal."""
+    return _flat(_least_cosine(X, normals, F))
+
+
+def _least_cosine(X: np.ndarray, normals: np.ndarray, F: np.ndarray) -> float:
+    """The least cosine between a triangle of ``F`` and one of its corners' normals."""
     face = cross3(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
     face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
     turn = np.einsum("md,mcd->mc", face, normals[F])  # (M, 3) cosines
-    return bool((turn > np.cos(np.radians(REFILL_TURN))).all())
+    return float(turn.min())
+
+
+def _flat(least_cosine: float) -> bool:
+    """Whether a fill whose :func:`_least_cosine` is ``least_cosine`` is within
+    :data:`REFILL_TURN` of each corner's normal."""
+    return bool(least_cosine > np.cos(np.radians(REFILL_TURN)))
 
 
 def _pinches(edges: np.ndarray) -> np.ndarray:
@@ -181,7 +192,7 @@ def _pinches(edges: np.ndarray) -> np.ndarray:
 
 def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
                        bound: float, exclude: np.ndarray | None = None, *, cloud=None,
-                       twins_of=twins) -> tuple[np.ndarray, int]:
+                       twins_of=twins, memo: FillMemo | None = None) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with its small boundary loops (no longer than a circle of
     :data:`REFILL_LOOP` times ``bound``, or :data:`REFILL_SHORT`, local spacings ``h``)
     closed by a flat re-mesh of their neighbourhood, or by a flat fill once their ears go
@@ -205,10 +216,15 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
     twins_of : callable
         :func:`pcgeom.mesh.twins`, or one that knows those of faces it has seen
         (:class:`pcgeom.maps.topology_batch.KnownTwins`).
+    memo : pcgeom.maps.topology_batch.FillMemo, optional
+        The fills' figures that earlier repairs of the cloud found (bound to it); None: a
+        memo of this call's own.
     """
     from scipy.spatial import cKDTree
 
     from .topology import enclosing_radius, fill_loop, rim_walks
+
+    memo = FillMemo() if memo is None else memo
 
     n = len(X)
     closed = 0
@@ -223,18 +239,31 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
     def _flat_fill(loop: np.ndarray, inside: np.ndarray, inner: np.ndarray):
         """The fill of a region's rim ``loop`` over ``inner`` that uses every point
         ``inside``, flat and no wider than the sampling leaves; None when there is none (the
-        module's tests that do not depend on the mesh round it)."""
-        # (A fill of the loop alone leaves the points inside out: no re-mesh.)
-        F = fill_loop(X, normals, loop, inner, loop_alone=not len(inside))
-        if F is None or not np.isin(inside, F).all() or not _faces_normals(X, normals, F):
+        module's tests that do not depend on the mesh round it). Its figures from ``memo``
+        when a repair of the cloud found them (the same loop, points and normals)."""
+        key = ("remesh", loop.tobytes(), inside.tobytes(), inner.tobytes(),
+               normals[loop].tobytes(), normals[inner].tobytes())
+        found = memo.get(key, lambda: _fill_figures(loop, inside, inner))
+        F, least = found[0], found[1]
+        if F is None or not _flat(least):
             return None
-        width = enclosing_radius(X, F) / np.maximum(h[F].mean(axis=1), 1e-300)
-        empty = _empty_radius(X, F, cloud.tree) / np.maximum(h[F].mean(axis=1), 1e-300)
-        if max(float(width.max()), float(empty.max())) > REFILL_WIDTH * bound:
+        if found[2] is None:  # (its widths found once it is flat)
+            width = enclosing_radius(X, F) / np.maximum(h[F].mean(axis=1), 1e-300)
+            empty = _empty_radius(X, F, cloud.tree) / np.maximum(h[F].mean(axis=1), 1e-300)
+            found[2] = max(float(width.max()), float(empty.max()))
+        if found[2] > REFILL_WIDTH * bound:
             return None
         return F
 
-    fitted: dict = {}  # _flat_fill's, by its arguments
+    def _fill_figures(loop: np.ndarray, inside: np.ndarray, inner: np.ndarray) -> list:
+        """[the fill (None when it leaves a point inside out), its least cosine to a
+        corner's normal, its widest triangle or empty circle (None: not yet found)]."""
+        # (A fill of the loop alone leaves the points inside out: no re-mesh.)
+        F = fill_loop(X, normals, loop, inner, loop_alone=not len(inside))
+        if F is None or not np.isin(inside, F).all():
+            return [None, None, None]
+        return [F, _least_cosine(X, normals, F), None]
+
     for _ in range(REFILL_ROUNDS):
         if not len(faces):
             break
@@ -354,10 +383,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                 reach = float(np.linalg.norm(X[loop] - centre, axis=1).max())
                 near = free[np.asarray(tree.query_ball_point(centre, reach), dtype=np.int64)]
                 inner = np.concatenate([inside, near])
-            key = (loop.tobytes(), inside.tobytes(), inner.tobytes())
-            if key not in fitted:  # (the same region, met again: its fill and tests again)
-                fitted[key] = _flat_fill(loop, inside, inner)
-            F = fitted[key]
+            F = _flat_fill(loop, inside, inner)
             if F is None:
                 return None
             # No edge of the fill inside the region may be an edge of the mesh outside it.

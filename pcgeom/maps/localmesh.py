@@ -45,6 +45,7 @@ from ..progress import Progress
 from .bridges import cut_bridges, disagreeing, one_sided
 from .normals import orient_normals
 from .topology import PLANAR_CLOSED, SPACING_NEIGHBOURS, Topology, repair, require_open
+from .topology_batch import FILLS
 
 __all__ = ["LocalMesh", "local_mesh", "mesh_cloud", "mesh_flips", "mesh_normals", "standing",
            "topology_record", "BRIDGES_WITH_INPUT_NORMALS", "CLOSED_SURFACE", "MIN_MESHED",
@@ -590,6 +591,7 @@ def mesh_cloud(Xn: np.ndarray, normals: np.ndarray | None, neighbours: int,
         fits one local mesh, or it samples a closed surface and ``onto`` is planar
         (:func:`pcgeom.maps.topology.closed_message`).
     """
+    FILLS.clear()  # (a run's repairs share the fills they try: a new run starts afresh)
     outlier = find_outliers(Xn) if outlier is None else np.asarray(outlier, bool)
     inliers = np.flatnonzero(~outlier)
     Xi = Xn[inliers]

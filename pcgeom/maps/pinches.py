@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import fan_counts, half_edges as _directed, twins
-from .topology_batch import CloudTree, Corners
+from .topology_batch import CloudTree, Corners, FillMemo, cut_at_repeats
 
 __all__ = ["mend_pinches"]
 
@@ -77,7 +77,7 @@ radius (in local spacings), or of :data:`pcgeom.maps.fills.REFILL_SHORT` spacing
 
 def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
                  bound: float, exclude: np.ndarray | None = None, *, cloud=None,
-                 twins_of=twins) -> tuple[np.ndarray, int]:
+                 twins_of=twins, memo: FillMemo | None = None) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with the small loops held open at pinched vertices closed
     (the module's rule), and how many fans were taken off for a fill.
 
@@ -99,17 +99,21 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
     twins_of : callable
         :func:`pcgeom.mesh.twins`, or one that knows those of faces it has seen
         (:class:`pcgeom.maps.topology_batch.KnownTwins`).
+    memo : pcgeom.maps.topology_batch.FillMemo, optional
+        The fills' figures that earlier repairs of the cloud found (bound to it); None: a
+        memo of this call's own.
     """
     from scipy.spatial import cKDTree
 
-    from .fills import REFILL_SHORT, _empty_radius, _faces_normals
-    from .topology import enclosing_radius, fill_loop, rim_walks, _cut_at_repeats
+    from .fills import REFILL_SHORT, _empty_radius, _flat, _least_cosine
+    from .topology import enclosing_radius, fill_loop, rim_walks
 
     n = len(X)
     faces = np.asarray(faces, dtype=np.int64)
     mended = 0
     reach = max(PINCH_LOOP * bound, REFILL_SHORT)
     cloud = CloudTree(X, exclude) if cloud is None else cloud  # its tree built when first needed
+    memo = FillMemo() if memo is None else memo
 
     again = None  # after a round: the points whose tries may go otherwise now
     for _ in range(PINCH_ROUNDS):
@@ -181,22 +185,22 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
                             ).tolist())
             P = faces[keep]
             prim, pwalks = rim_walks(P)
+            at_pts = np.isin(prim, pts).any(axis=1)  # (each rim edge's, for all walks at once)
+            back = prim[:, 1] * n + prim[:, 0]
+            genuine = ~has_half(back) | np.isin(back, list(off_keys))
             found = []
             for w in pwalks:
-                e = prim[w]
-                if not np.isin(e, pts).any():
+                if not at_pts[w].any():
                     continue
-                back = e[:, 1] * n + e[:, 0]
-                genuine = ~has_half(back) | np.isin(back, list(off_keys))
-                if not genuine.all():
+                if not genuine[w].all():
                     return None  # the loop runs out of the patch: not a small one
-                found.append(e[:, 0])
+                found.append(prim[w, 0])
             orphans = np.setdiff1d(pts, P.ravel())
             if exclude is not None:
                 orphans = orphans[~np.asarray(exclude, dtype=bool)[orphans]]
             out = []
             for walk in found:
-                for loop in _cut_at_repeats(walk):
+                for loop in cut_at_repeats(walk):
                     inner = orphans
                     if tree is not None:
                         centre = X[loop].mean(axis=0)
@@ -206,14 +210,18 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
                         inner = np.union1d(inner, near)
                     E = np.sort(_directed(faces[np.setdiff1d(tris_at(loop), T_off)]), axis=1)
                     Ek = np.unique(E[:, 0] * n + E[:, 1])
-                    G = fill_loop(X, normals, loop, inner, Ek)
-                    if G is None:
+                    key = ("pinch", loop.tobytes(), inner.tobytes(), Ek.tobytes(),
+                           normals[loop].tobytes(), normals[inner].tobytes())
+                    figures = memo.get(key, lambda: _figures(loop, inner, Ek))
+                    G = figures[0]
+                    if G is None or not _flat(figures[1]):
                         return None
-                    if not _faces_normals(X, normals, G):
-                        return None
-                    width = np.maximum(enclosing_radius(X, G), _empty_radius(X, G, cloud.tree)
-                                       ) / np.maximum(h[G].mean(axis=1), 1e-300)
-                    if float(width.max()) > PINCH_WIDTH * bound:
+                    if figures[2] is None:  # (its widths found once it is flat)
+                        width = np.maximum(enclosing_radius(X, G),
+                                           _empty_radius(X, G, cloud.tree)
+                                           ) / np.maximum(h[G].mean(axis=1), 1e-300)
+                        figures[2] = float(width.max())
+                    if figures[2] > PINCH_WIDTH * bound:
                         return None
                     out.append(G)
             if not out:
@@ -235,6 +243,12 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
                     keys.tolist()):
                 return None
             return patch, G, keys
+
+        def _figures(loop: np.ndarray, inner: np.ndarray, Ek: np.ndarray) -> list:
+            """[the loop's fill (None: none), its least cosine to a corner's normal, its
+            widest triangle or empty circle (None: not yet found)]."""
+            G = fill_loop(X, normals, loop, inner, Ek)
+            return [G, None if G is None else _least_cosine(X, normals, G), None]
 
         for v in tried.tolist():
             cs = corner[cstart[v]:cstart[v + 1]]

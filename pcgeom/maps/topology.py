@@ -61,8 +61,8 @@ from ..mesh import (corner_fans, cross3, drop_smaller_fans, face_keys, fan_count
                     half_edges as _directed, twins)
 from .fills import refill_small_loops
 from .pinches import mend_pinches
-from .topology_batch import (CloudTree, KnownTwins, add_fills, edge_keys, main_faces, sub_twins,
-                             triage)
+from .topology_batch import (FILLS, CloudTree, KnownTwins, add_fills, cut_at_repeats,
+                             edge_keys, main_faces, sub_twins, triage)
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
 
@@ -295,29 +295,8 @@ def simple_loops(faces: np.ndarray, twin: np.ndarray | None = None) -> list[np.n
     out = []
     for walk in walks:
         if len(walk) >= 3:
-            out.extend(_cut_at_repeats(rim[walk, 0]))
+            out.extend(cut_at_repeats(rim[walk, 0]))
     return out
-
-
-def _cut_at_repeats(loop: np.ndarray) -> list[np.ndarray]:
-    """A closed walk cut into simple cycles: each time a vertex comes back, the cycle since
-    its last visit is cut off (cycles of fewer than 3 vertices are dropped)."""
-    stack: list[int] = []
-    where: dict[int, int] = {}
-    cycles = []
-    for v in loop.tolist() + [int(loop[0])]:
-        if v in where:
-            start = where[v]
-            cycle = stack[start:]
-            if len(cycle) >= 3:
-                cycles.append(np.asarray(cycle, dtype=np.int64))
-            for w in cycle[1:]:
-                del where[w]
-            del stack[start + 1:]
-        else:
-            where[v] = len(stack)
-            stack.append(v)
-    return cycles
 
 
 # --------------------------------------------------------------------------- widths
@@ -615,12 +594,13 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
             faces, filled, _, _ = _fill_pass(X, normals, faces, h, bound, exclude, loops=loops,
                                              empty=PINCH_EMPTY if PINCH_FANS else None,
                                              found=None if PINCH_FANS else found, cloud=trees)
+            memo = FILLS.bind(X, exclude, h)  # (the fills earlier repairs of X tried)
             faces, refilled = refill_small_loops(X, normals, faces, h, bound, exclude,
-                                                 cloud=trees, twins_of=known.of)
+                                                 cloud=trees, twins_of=known.of, memo=memo)
             filled += refilled
             if PINCH_MEND:
                 faces, mended = mend_pinches(X, normals, faces, h, bound, exclude,
-                                             cloud=trees, twins_of=known.of)
+                                             cloud=trees, twins_of=known.of, memo=memo)
                 filled += mended
             return faces, _topology(before, pinched_before, *_measure(faces, None, known.of),
                                     filled, 0)
