@@ -8,8 +8,11 @@ apart, about 0.74 true spacings at 11k points).
    regions they join (flat, the two walls of a fold, the bulb at its
    bottom: fillets count as bulb), and the true edges the mesh has, by region; where the
    free map's flips are (in the mesh or not, beside its false holes, unmeshed, where a fold
-   tapers); which of the mesh's steps lose the true triangles; how many bare points the
-   orientation turns the wrong way, from PCA lines and from the true lines.
+   tapers), and by what a fix would have to mend (the map on its own mesh, or the mesh),
+   with two fuller meshes mapped again (the true triangles it lacks put in, an oracle; its
+   crossing false loops filled); which of the mesh's steps lose the true triangles; how
+   many bare points the orientation turns the wrong way, from PCA lines and from the true
+   lines.
 2. An oracle: every such bridge cut before the topology repair (the truth known), maps side
    by side with the rule's.
 3. The rule of pcgeom.maps.bridges off and on in every build, side by side: the lips sheet
@@ -177,9 +180,121 @@ def flip_rows() -> list[dict]:
                 "loops": f"{sum(len(x) <= 4 for x in loops)} / "
                          f"{sum(4 < len(x) <= 16 for x in loops)} / "
                          f"{sum(len(x) > 16 for x in loops)}",
-                "taper": int((flipped & taper).sum()), "faces": len(s.faces)})
+                "taper": int((flipped & taper).sum()), "faces": len(s.faces),
+                **_flip_causes(s, mesh, F, uv, flipped, loops),
+                **_filled(s, Xn, mesh, F, uv, loops)})
             harness.log(f"flips seed {seed} {tag}: {rows[-1]}")
     return rows
+
+
+def _flip_causes(s, mesh, F, uv, flipped, loops) -> dict:
+    """The flipped true triangles split by what a fix would have to mend, first match
+    wins: ``mapflip``, a corner on a local-mesh triangle the map turns over (a flip-free
+    finish of the map on that mesh reaches them); ``turned``, a corner on a local-mesh
+    triangle turned over on the sheet's own chart (its parameters: the mesh mixes the
+    sheets or its orientation there); ``crossing``, a corner on a false loop whose image
+    crosses itself (the mesh lacks the triangles there, and the map overlaps itself
+    across the hole); ``unmeshed``, a corner outside the main part; ``rest``."""
+    from pcgeom.mesh import signed_areas
+
+    n = len(s.points)
+    turn = np.sign(np.median(signed_areas(uv, F)))
+    chart = np.sign(np.median(signed_areas(s.params, s.faces)))
+    at = {"mapflip": F[signed_areas(uv, F) * turn <= 0],
+          "turned": F[signed_areas(s.params, F) * chart <= 0],
+          "crossing": [x for x in loops if not _simple(uv, x)],
+          "unmeshed": np.flatnonzero(~mesh.main)}
+    out, left = {}, flipped.copy()
+    for name, where in at.items():
+        corner = np.zeros(n, dtype=bool)
+        corner[np.concatenate([np.ravel(x) for x in where]) if len(where) else []] = True
+        hit = left & corner[s.faces].any(axis=1)
+        out[f"cause_{name}"], left = int(hit.sum()), left & ~hit
+    out["cause_rest"] = int(left.sum())
+    out["turned_faces"] = len(at["turned"])
+    return out
+
+
+def _filled(s, Xn, mesh, F, uv, loops) -> dict:
+    """Fuller meshes mapped again (free LSCM as runs solve it), flipped true triangles and
+    angle: the true triangles the local mesh lacks put in where they fit (none of their
+    directed edges already in the mesh; corners outside the main part join it), ``holes``
+    those with every corner on a false loop or unmeshed (the mesh's holes filled from the
+    truth), ``oracle`` any (also over the mesh's own triangles where it triangulates
+    otherwise); ``fill``, each false loop whose image crosses itself filled by its
+    triangulation of least total edge length (no new points, :func:`_shortest_fill`)."""
+    import dataclasses
+
+    from pcgeom.config import get_preset
+    from pcgeom.maps.free import lscm_free
+    from pcgeom.metrics import angle_distortion
+    from pcgeom.mesh import face_keys
+
+    c = get_preset("fast").local_mesh
+    n = len(s.points)
+    directed = set(_directed(F).tolist())
+    T = s.faces
+    if np.isin(_directed(T[:, ::-1]), list(directed)).sum() > \
+            np.isin(_directed(T), list(directed)).sum():
+        T = T[:, ::-1]  # the truth turned as the mesh
+    missing = T[~np.isin(face_keys(T, n), face_keys(F, n))]
+    at_hole = ~mesh.main
+    at_hole[np.concatenate(loops) if loops else []] = True
+    fills = {}
+    for name, allowed in (("holes", at_hole[missing].all(axis=1)),
+                          ("oracle", np.ones(len(missing), dtype=bool))):
+        taken, added = set(directed), []
+        for t in missing[allowed]:
+            e = _directed(t[None, :]).tolist()
+            if not any(x in taken for x in e):
+                taken.update(e)
+                added.append(t)
+        fills[name] = np.array(added, dtype=np.int64).reshape(-1, 3)
+    crossing = [x[::-1] for x in loops if not _simple(uv, x)]
+    fills["fill"] = np.concatenate([_shortest_fill(Xn, x) for x in crossing]) \
+        if crossing else np.zeros((0, 3), dtype=np.int64)
+    out = {}
+    for name, A in fills.items():
+        main = mesh.main.copy()
+        main[A.ravel()] = True
+        filled = dataclasses.replace(mesh, faces=np.concatenate([mesh.faces, A]), main=main)
+        U = lscm_free(Xn, filled, rounds=c.robust_rounds, scale=c.robust_scale,
+                      floor=c.robust_floor)
+        out[f"{name}_faces"] = len(A)
+        out[f"{name}_flipped"] = int(_flipped(U, s.faces).sum())
+        out[f"{name}_rad"] = angle_distortion(s.points, s.faces, U).mean_abs
+    out["rad"] = angle_distortion(s.points, s.faces, uv).mean_abs
+    return out
+
+
+def _directed(F) -> np.ndarray:
+    """Each triangle's three directed edges ``a -> b`` as keys ``a * 2**31 + b``."""
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    return E[:, 0] * (1 << 31) + E[:, 1]
+
+
+def _shortest_fill(X, q) -> np.ndarray:
+    """The triangulation of the polygon ``q`` (indices into ``X``, in the fill's turning
+    order) of least total edge length, by dynamic programming over its sub-polygons
+    (Liepa 2003's weights reduced to lengths), ``(len(q) - 2, 3)``."""
+    L, P = len(q), X[q]
+    cost, split = np.zeros((L, L)), np.zeros((L, L), dtype=np.int64)
+    for d in range(2, L):
+        for i in range(L - d):
+            j = i + d
+            k = np.arange(i + 1, j)
+            c = cost[i, k] + cost[k, j] + np.linalg.norm(P[k] - P[i], axis=1) \
+                + np.linalg.norm(P[k] - P[j], axis=1)
+            split[i, j] = k[np.argmin(c)]
+            cost[i, j] = c.min()
+    out, todo = [], [(0, L - 1)]
+    while todo:
+        i, j = todo.pop()
+        if j - i >= 2:
+            k = split[i, j]
+            out.append((q[i], q[k], q[j]))
+            todo += [(i, k), (k, j)]
+    return np.array(out, dtype=np.int64).reshape(-1, 3)
 
 
 def _widest_angle(X, F) -> np.ndarray:
@@ -459,6 +574,31 @@ def main(argv=None) -> None:
         ("LSCM flipped (both)", "{lscm} ({both})"),
         ("rim slivers", "{rim_slivers}"), ("own mesh flipped", "{own} / {own_faces}"),
         ("false loops crossing themselves in the map", "{crossing}")], flips)
+    lines += ["", "The same flips by what a fix would have to mend (first match wins): a corner "
+              "on a local-mesh triangle the map turns over (a flip-free finish of the map on "
+              "its own mesh reaches these), on a local-mesh triangle turned over on the "
+              "sheet's own chart (its parameters: the mesh mixes the sheets or is oriented "
+              "the wrong way there), on a false loop whose image crosses itself (the mesh "
+              "lacks the triangles across the hole), unmeshed; then the free LSCM map (as "
+              "runs solve it) of fuller meshes: the true triangles the mesh lacks put in "
+              "where they fit (none of their directed edges in the mesh), those with every "
+              "corner on a false loop or unmeshed (its holes filled from the truth) or any "
+              "(an oracle that also lays the true triangulation over the mesh's own where "
+              "the two differ), and each crossing false loop filled by its triangulation of "
+              "least edge length (no new points).", ""]
+    lines += harness.table([
+        ("seed", "{seed}"), ("normals", "{normals}"), ("flipped", "{flipped}"),
+        ("at a map-flipped mesh triangle", "{cause_mapflip}"),
+        ("at a mesh triangle turned on the chart (such triangles)",
+         "{cause_turned} ({turned_faces})"),
+        ("on a crossing false loop", "{cause_crossing}"),
+        ("unmeshed corner", "{cause_unmeshed}"), ("other", "{cause_rest}"),
+        ("true triangles put in at holes: rad, flipped",
+         "{holes_faces}: {rad:.4f} -> {holes_rad:.4f}, {flipped} -> {holes_flipped}"),
+        ("anywhere they fit (oracle)",
+         "{oracle_faces}: {oracle_rad:.4f}, {oracle_flipped}"),
+        ("crossing loops filled, rad, flipped",
+         "{fill_faces}: {rad:.4f} -> {fill_rad:.4f}, {flipped} -> {fill_flipped}")], flips)
     lines += ["", "The true triangles (its normals) that the local mesh's steps lose, in all "
               "(where a fold tapers): after the fans, their merge (standing triangles left "
               "out), the drop of those that turn from their normals, the repair with bridges "
