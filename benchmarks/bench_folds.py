@@ -173,7 +173,7 @@ def verdicts(rows, boundaries) -> list[str]:
     return lines
 
 
-def render(rows, boundaries, argv, rules=(), votes=(), lids=()) -> str:
+def render(rows, boundaries, argv, rules=(), votes=(), lids=(), cuts=()) -> str:
     import os
     import platform
 
@@ -220,6 +220,16 @@ def render(rows, boundaries, argv, rules=(), votes=(), lids=()) -> str:
         "Targets (issue 25: within 2x LSCM on the true mesh, < 0.3% flipped; one loop, "
         "precision and recall >= 0.95; issue 39 for the deep folds):", "",
         *verdicts(rows, boundaries), "",
+        *(["### The bare mesh with its bridges cut, side by side (`folds_rules.cut_rows`)", "",
+           "Bare, in this process (`pcgeom.parametrize`, seed 0): `fast` without (before) and "
+           "with (now) the local mesh of the kept normals built again with its bridges cut and "
+           "from its own vertex normals (`pcgeom.maps.free.CUT_ROUNDS`) and the unmeshed "
+           "points placed from the rings about their nearest meshed point "
+           "(`pcgeom.maps.localmesh.PLACE_BY_RINGS`), one after the other on each surface; "
+           "the grooves and pleats (6000 points) for each cloud seed listed, the shared "
+           "surfaces free and onto the disk. Angle distortion and flips on the true "
+           "triangles; wall seconds on a shared machine.", "",
+           *folds_rules.render_cut(cuts), ""] if cuts else []),
         *(["### The voted normals side by side (`benchmarks/folds_rules.py`, `vote_rows`)", "",
            "Bare, in this process (`pcgeom.parametrize`, seed 0): `fast` with "
            "`LocalMeshConfig.vote = False` (before) and `fast` (now), one after the other on "
@@ -266,8 +276,9 @@ def main(argv=None) -> int:
     rules = folds_rules.measure(POINTS, args.rule_seeds) if args.rule_seeds else []
     votes = folds_rules.vote_rows(POINTS, args.vote_seeds) if args.vote_seeds else []
     lids = folds_rules.lid_rows(POINTS, args.vote_seeds) if args.vote_seeds else []
+    cuts = folds_rules.cut_rows(POINTS, args.vote_seeds) if args.vote_seeds else []
     H.write_section(args.out, "bench_folds", render(rows, boundaries, argv, rules, votes,
-                                                    lids))
+                                                    lids, cuts))
     return 0
 
 

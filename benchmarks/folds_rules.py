@@ -174,6 +174,62 @@ def render_vote(rows) -> list[str]:
                                                   f"{r['on']['wall_s']:.1f}")], rows)
 
 
+@contextlib.contextmanager
+def cut_off():
+    """``pcgeom.parametrize`` without the bare cloud's mesh with its bridges cut
+    (``pcgeom.maps.free.CUT_ROUNDS`` 0) and with its unmeshed points placed from their nearest
+    points in space (``pcgeom.maps.localmesh.PLACE_BY_RINGS`` off), for the duration."""
+    import pcgeom.maps.free as FR
+    import pcgeom.maps.localmesh as LM
+
+    saved = FR.CUT_ROUNDS, LM.PLACE_BY_RINGS
+    FR.CUT_ROUNDS, LM.PLACE_BY_RINGS = 0, False
+    try:
+        yield
+    finally:
+        FR.CUT_ROUNDS, LM.PLACE_BY_RINGS = saved
+
+
+def cut_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
+    """Each surface of :func:`vote_surfaces` mapped bare with ``fast`` without and with the
+    mesh with its bridges cut and the unmeshed points placed from their rings
+    (:func:`cut_off`), one after the other in this process: angle, flips and wall seconds of
+    each, and whether the cut mesh was kept."""
+    import pcgeom
+
+    fast = pcgeom.get_preset("fast")
+    rows = []
+    for case, V, F, domains in vote_surfaces(points, seeds):
+        for domain in domains:
+            row = {"case": case, "domain": domain}
+            for key in ("off", "on"):
+                with warnings.catch_warnings(), (cut_off() if key == "off"
+                                                 else contextlib.nullcontext()):
+                    warnings.simplefilter("ignore")
+                    result, seconds = H.timed(pcgeom.parametrize, V, domain, config=fast,
+                                              seed=0, progress=False)
+                row[key] = {"wall_s": seconds, **H.score_map(result.uv, V, F)}
+                record = next((r for r in result.history if "cut_kept" in r), {})
+                row[key]["kept"] = record.get("cut_kept", False)
+            H.log(f"{case} {domain}: cut off {row['off']['rad']:.4f}, on {row['on']['rad']:.4f}")
+            rows.append(row)
+    return rows
+
+
+def render_cut(rows) -> list[str]:
+    def cell(key, field, fmt):
+        return lambda r: format(r[key][field], fmt)
+
+    return H.table([("surface", "{case}"), ("map", "{domain}"),
+                    ("angle before", cell("off", "rad", ".4f")),
+                    ("angle now", cell("on", "rad", ".4f")),
+                    ("flipped before", lambda r: _flips(r["off"])),
+                    ("flipped now", lambda r: _flips(r["on"])),
+                    ("cut mesh kept", lambda r: "yes" if r["on"]["kept"] else "no"),
+                    ("wall s before / now", lambda r: f"{r['off']['wall_s']:.1f} / "
+                                                      f"{r['on']['wall_s']:.1f}")], rows)
+
+
 def _flips(run: dict) -> str:
     return f"{run['flipped']} ({run['flip_pct']:.2f}%)"
 

@@ -468,10 +468,12 @@ def test_normal_rounds_mend_a_bare_pleat_whose_sheets_nearly_touch(monkeypatch):
     0.32%). A map that does not fold runs none, nor does a cloud with normals. The map
     before: no rounds, no upright rebuild and no vote (the upright rebuild alone: 0.131 rad,
     2.1%; the vote alone 0.058 rad, 0.64%; the second orientation of a mesh with handles
-    alone, ``pcgeom.maps.free.ARC_ORIENT``, 0.079 rad)."""
+    alone, ``pcgeom.maps.free.ARC_ORIENT``, 0.079 rad; the mesh with its bridges cut and the
+    unmeshed points placed from their rings alone, ``pcgeom.maps.free.CUT_ROUNDS`` and
+    ``pcgeom.maps.localmesh.PLACE_BY_RINGS``, 0.103 rad, 1.27%)."""
     import dataclasses
 
-    from pcgeom.maps import free
+    from pcgeom.maps import free, localmesh
     from pcgeom.synthetic import pleated_sheet
 
     fast = get_preset("fast")
@@ -483,6 +485,8 @@ def test_normal_rounds_mend_a_bare_pleat_whose_sheets_nearly_touch(monkeypatch):
                                                                      normal_rounds=0, facing=0.0,
                                                                      vote=False))
     monkeypatch.setattr(free, "ARC_ORIENT", False)
+    monkeypatch.setattr(free, "CUT_ROUNDS", 0)
+    monkeypatch.setattr(localmesh, "PLACE_BY_RINGS", False)
     before = angle_distortion(sheet.points, sheet.faces,
                               parametrize(sheet.points, config=none, progress=False).uv)
     assert before.mean_abs > 0.2 and before.flipped > 0.025 * before.n_faces

@@ -56,8 +56,8 @@ from ..progress import Progress
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
 from ._sparse import fill_order, ordering_name, solver_name, spd_factor
-from .localmesh import (MIN_MESHED, STANDING_QUALITY, LocalMesh, _interpolate_rest, _submesh,
-                        local_mesh, mesh_cloud, mesh_flips, mesh_normals, standing,
+from .localmesh import (MIN_MESHED, STANDING_QUALITY, LocalMesh, _submesh, local_mesh,
+                        mesh_cloud, mesh_flips, mesh_normals, place_rest, standing,
                         topology_record)
 from .refine import refine
 
@@ -152,7 +152,7 @@ def lscm_free(X: np.ndarray, mesh: LocalMesh, *, rounds: int = 0, scale: float =
     flat = whole(z)
     U = np.full((len(X), 2), np.nan)
     U[main] = np.column_stack([flat[:m], flat[m:]])
-    return _principal_pose(_interpolate_rest(X, U, mesh.main, mesh.normals))
+    return _principal_pose(place_rest(X, U, mesh))
 
 
 DEGENERATE = ("the local mesh of the cloud is degenerate (LSCM has no unique solution); try "
@@ -307,7 +307,10 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     :func:`pcgeom.maps.topology.require_open`). With estimated normals and a map that turns
     over more than
     ``LocalMeshConfig.normal_round_flips`` of its own triangles, the normal rounds follow
-    (step 4 of the module's description).
+    (step 4 of the module's description); then, with estimated normals, the upright mesh
+    (:func:`_upright`), the voted normals (:func:`_voted`), the second orientation
+    (:func:`_arc_oriented`) and the mesh with its bridges cut (:func:`_cut`), each kept
+    when its map scores better on its own mesh.
 
     Returns the map ``(N, 2)``, the mesh, the normals (estimated when ``normals`` is None)
     and the start of the history record (its ``seconds``: this step's; the map that goes on
@@ -340,6 +343,9 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     if record["normals"] == "estimated" and ARC_ORIENT:
         uv, mesh, normals, robust = _arc_oriented(Xn, (uv, mesh, normals, robust), solve,
                                                   settings, outlier=outlier, record=record)
+    if record["normals"] == "estimated" and CUT_ROUNDS:
+        uv, mesh, normals, robust = _cut(Xn, (uv, mesh, normals, robust), solve, settings,
+                                         outlier=outlier, record=record)
     record["robust_rounds"] = settings.robust_rounds
     # Triangles the robust round weighted below 1/2 (None without a round).
     record["robust_downweighted"] = robust.get("downweighted")
@@ -437,31 +443,60 @@ def _voted(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.ndarray,
         return kept
     voted = normals.copy()
     voted[inliers] = found
-    limit = (~mesh.main).sum() + VOTE_UNMESHED * len(Xn)
-    allow = VOTE_ALLOW * mesh.n_faces
-    scores = [_map_score(Xn, mesh, uv)]
-    best = None
-    for _ in range(1 + VOTE_ROUNDS):
-        if best is not None:
-            voted = mesh_normals(Xn, best[1], best[2])
-        again = local_mesh(Xn, voted, settings.neighbours, exclude=outlier,
-                           facing=settings.facing or None)
-        # A mesh that leaves more points out maps fewer hard places: no comparison.
-        if again.looks_closed or (~again.main).sum() > limit:
-            break
-        uv_again, stats_again = solve(again)
-        scores.append(_map_score(Xn, again, uv_again))
-        if best is not None and _score_above(scores[-1], allow) >= _score_above(best[4], allow):
-            break
-        best = (uv_again, again, voted, stats_again, scores[-1])
+    best, scores = _rebuilt(Xn, voted, kept, solve, settings, outlier=outlier, bridges=False,
+                            rounds=VOTE_ROUNDS)
     record["voted_scores"] = [list(s) for s in scores]
-    if best is None or _score_above(best[4], allow) >= _score_above(scores[0], allow,
-                                                                     VOTE_GAIN):
+    if not _better(best, scores[0], VOTE_ALLOW * mesh.n_faces, VOTE_GAIN):
         return kept
     again = best[1]
     record.update(voted_kept=True, faces=again.n_faces, boundary_edges=again.boundary_edges,
                   unmeshed=int((~again.main).sum()), **topology_record(again.topology))
     return best[:4]
+
+
+def _rebuilt(Xn: np.ndarray, normals: np.ndarray, kept: tuple, solve, settings, *,
+             outlier: np.ndarray, bridges: bool, rounds: int, through: bool = False) -> tuple:
+    """The local mesh built from ``normals`` (``bridges``: with its bridges cut,
+    :func:`pcgeom.maps.localmesh.local_mesh`; the upright rule, ``settings.facing``),
+    mapped, and rebuilt from its own vertex normals
+    (:func:`pcgeom.maps.localmesh.mesh_normals`) for up to ``rounds`` rounds while each maps
+    better on its own mesh (:func:`_score_above`, flips beyond :data:`VOTE_ALLOW` of the kept
+    mesh's triangles, then angle). A mesh that looks closed ends the rounds; one that leaves
+    :data:`VOTE_UNMESHED` more points out than the kept one (``kept``, ``(uv, mesh, normals,
+    stats)``) is not compared and ends them too, unless ``through``: then its own normals
+    start the next round (those of points whose normals its cut left out come back from
+    their meshed neighbours'). Returns the best ``(uv, mesh, normals, stats, score)`` (None
+    when no mesh qualified) and the scores (:func:`_map_score`), the kept map's first."""
+    uv, mesh, _, _ = kept
+    limit = (~mesh.main).sum() + VOTE_UNMESHED * len(Xn)
+    allow = VOTE_ALLOW * mesh.n_faces
+    scores = [_map_score(Xn, mesh, uv)]
+    best, source = None, None  # source: the mesh and normals the next round starts from
+    for _ in range(1 + rounds):
+        if source is not None:
+            normals = mesh_normals(Xn, *source)
+        again = local_mesh(Xn, normals, settings.neighbours, exclude=outlier, bridges=bridges,
+                           facing=settings.facing or None)
+        if again.looks_closed:
+            break
+        # A mesh that leaves more points out maps fewer hard places: no comparison.
+        if (~again.main).sum() > limit:
+            if not through:
+                break
+            source = (again, normals)
+            continue
+        uv_again, stats_again = solve(again)
+        scores.append(_map_score(Xn, again, uv_again))
+        if best is not None and _score_above(scores[-1], allow) >= _score_above(best[4], allow):
+            break
+        best, source = (uv_again, again, normals, stats_again, scores[-1]), (again, normals)
+    return best, scores
+
+
+def _better(best: tuple | None, score: tuple, allow: float, gain: float = 1.0) -> bool:
+    """Whether :func:`_rebuilt`'s ``best`` maps better on its own mesh than ``score`` does
+    on its (:func:`_score_above`; the kept one's angle times ``gain``)."""
+    return best is not None and _score_above(best[4], allow) < _score_above(score, allow, gain)
 
 
 ARC_ORIENT = True
@@ -523,6 +558,54 @@ def _arc_oriented(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.n
     record.update(arc_kept=True, faces=again.n_faces, boundary_edges=again.boundary_edges,
                   unmeshed=int((~again.main).sum()), **topology_record(again.topology))
     return uv_again, again, turned, stats_again
+
+
+CUT_ROUNDS = 3
+"""Rounds of the local mesh with its bridges cut, from its own vertex normals, after the
+first built from the kept normals (:func:`_cut`); 0: no such mesh for a bare cloud.
+
+Why (bare :func:`pcgeom.synthetic_folds.deep_folds`, uniformly sampled, walls 1.5 spacings
+apart, 6000 points, seeds 0 / 1): the kept normals are no longer the trouble (24 / 39 points
+over 30 degrees off, none turned), the mesh is: 37 / 55 of its edges join a groove's two
+walls. Its mesh with the true normals maps at 0.0214 / 0.0195 rad, with its bridges cut at
+0.0093 / 0.0095; the estimated normals' mesh with its bridges cut at 0.0185 / 0.0124, and
+rebuilt once from its own vertex normals at 0.0105 / 0.0123 (exact map 0.0066). Where the
+first cut mesh leaves points out (2500 points, seed 0: 26, the kept mesh 11), its own
+normals bring them back in the next round (122 -> 28 normals over 30 degrees off).
+Measured side by side (``fast``, bare, seed 0, true triangles, with the unmeshed points'
+placement from their rings, :data:`pcgeom.maps.localmesh.PLACE_BY_RINGS`; off -> on, load
+7-9 on 2 cores): those grooves 0.0185 rad, 20 flipped -> 0.0089, 7 (1.35x the exact map),
+seed 1 0.0513, 46 -> 0.0112, 6; 2 / 3 spacings apart 0.0073 / 0.0053 -> 0.0069 / 0.0053
+(seed 1 0.0070 / 0.0062 -> 0.0070 / 0.0059), 1 -> 2 / 0 flipped; evenly sampled 1.5 / 2
+apart 0.0099, 8 -> 0.0077, 5 / 0.0030 -> 0.0029; the pleats 1.5 / 2 / 2.5 spacings wide
+0.0155, 38 -> 0.0110, 1 / 0.0055 -> 0.0055 / 0.0036, 1 -> 0.0032, 0 (cloud seed 1: 0.0382,
+90 -> 0.0353, 55 / 0.0102, 1 -> 0.0058, 0 / 0.0045 -> 0.0037); face_human_choi free 0.0310,
+702 -> 0.0278, 628, onto the disk 0.0324, 714 -> 0.0315, 624; peaks_three_cgal free 0.0406
+-> 0.0402; face_3holes_small_choi and peaks_7holes_choi, free and disk, the same. It costs a
+mesh and a solve a round (at least one; wall time 1.3-1.6x on face_human_choi)."""
+
+
+def _cut(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.ndarray,
+         record: dict) -> tuple:
+    """The local mesh of the kept normals built again with its bridges cut
+    (:func:`pcgeom.maps.localmesh.local_mesh` ``bridges=True``: lids of one-sided stars,
+    triangles turned from their corners' normals, bridges whose cut lowers the genus), then
+    from its own vertex normals for up to :data:`CUT_ROUNDS` rounds (:func:`_rebuilt`), and
+    kept when its map scores better on its own mesh (:func:`_score_above`: flips beyond
+    :data:`VOTE_ALLOW`, then angle) without leaving :data:`VOTE_UNMESHED` more points out.
+    ``record`` receives ``cut_kept`` and ``cut_scores`` (each map's ``[flips, angle]``, the
+    kept first) and, when kept, the new mesh's ``faces``, ``boundary_edges``, ``unmeshed``
+    and topology."""
+    uv, mesh, normals, stats = kept
+    best, scores = _rebuilt(Xn, normals, kept, solve, settings, outlier=outlier, bridges=True,
+                            rounds=CUT_ROUNDS, through=True)
+    record.update(cut_kept=False, cut_scores=[list(s) for s in scores])
+    if not _better(best, scores[0], VOTE_ALLOW * mesh.n_faces):
+        return kept
+    again = best[1]
+    record.update(cut_kept=True, faces=again.n_faces, boundary_edges=again.boundary_edges,
+                  unmeshed=int((~again.main).sum()), **topology_record(again.topology))
+    return best[:4]
 
 
 def _score_above(score: tuple, allow: float, gain: float = 1.0) -> tuple[float, float]:
