@@ -28,7 +28,9 @@ boundary into a folded planar map. This module measures the mesh's topology and 
    itself or the loop runs through pinched vertices) have their neighbourhood re-meshed
    flat instead (:func:`pcgeom.maps.fills.refill_small_loops`, its measured rule there);
    those left at a pinched vertex lose the vertex's smaller fan where the loops that leaves
-   get flat fills (:func:`pcgeom.maps.pinches.mend_pinches`, :data:`PINCH_MEND`).
+   get flat fills (:func:`pcgeom.maps.pinches.mend_pinches`, :data:`PINCH_MEND`); on a mesh
+   with no handles, those through a pinched vertex or crossing themselves in their plane
+   have their region re-triangulated (:func:`pcgeom.maps.regions.retriangulate_regions`).
 3. **Closed.** Without a long loop, the same fills; then the loops that no flat fill closes
    (the mesh overlaps itself there: noise, uneven density), or whose fill is wider than the
    bound, are opened further (their points' triangles go) and filled again, folds allowed,
@@ -61,6 +63,7 @@ from ..mesh import (corner_fans, cross3, drop_smaller_fans, face_keys, fan_count
                     half_edges as _directed, twins)
 from .fills import refill_small_loops
 from .pinches import mend_pinches
+from .regions import retriangulate_regions
 from .topology_batch import (FILLS, CloudTree, KnownTwins, add_fills, cut_at_repeats,
                              edge_keys, main_faces, sub_twins, triage)
 
@@ -114,6 +117,9 @@ the bound (peaks_7holes_choi: 1.0 kept 4 of its 7 holes, 0.75 all 7)."""
 
 PINCH_MEND = True
 """Whether :func:`pcgeom.maps.pinches.mend_pinches` follows the re-meshes (measured there)."""
+
+REGIONS = True
+"""Whether :mod:`pcgeom.maps.regions`' re-triangulation follows the mend (measured there)."""
 
 SPACING_NEIGHBOURS = 6
 """Nearest points whose mean distance is a point's local spacing."""
@@ -602,8 +608,14 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
                 faces, mended = mend_pinches(X, normals, faces, h, bound, exclude,
                                              cloud=trees, twins_of=known.of, memo=memo)
                 filled += mended
-            return faces, _topology(before, pinched_before, *_measure(faces, None, known.of),
-                                    filled, 0)
+            after = _measure(faces, None, known.of)
+            if REGIONS and after[0]["genus"] == 0 and after[0]["boundary_loops"] > 1:
+                relaid_faces, relaid = retriangulate_regions(X, normals, faces, h, bound, exclude,
+                                                             cloud=trees, twins_of=known.of)
+                if relaid:
+                    faces, filled = relaid_faces, filled + relaid
+                    after = _measure(faces, None, known.of)
+            return faces, _topology(before, pinched_before, *after, filled, 0)
         faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude,
                                                 loops=loops, found=found, cloud=trees)
         if len(stuck) or long:
