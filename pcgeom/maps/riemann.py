@@ -17,8 +17,9 @@ estimated normals have no preferred side), maps the surface onto ``Omega``:
    area evenly). Both disks then have their area's centre at 0.
 3. **The rotation.** Among :data:`ROTATIONS` rotations, mirrored or not, the one whose
    composed map stretches the local mesh's triangles most evenly: the smallest area-weighted
-   variance of ``log(area in Omega / area in 3D)``; with landmarks, plus the Chamfer distance
-   of the mapped landmark points to their targets, over the domain's area; from there the
+   variance of ``log(area in Omega / area in 3D)``, clipped about its median
+   (:func:`area_spread`); with landmarks, plus the Chamfer distance of the mapped landmark
+   points to their targets, over the domain's area; from there the
    whole disk automorphism (turn, mirror and the point ``c`` sent to the centre) is fitted to
    the landmarks by least squares (:func:`pcgeom.maps.moebius.fit_landmarks`; the targets are
    carried into the disk by the domain's Riemann map, :meth:`DomainDisk.forward`).
@@ -49,7 +50,7 @@ from ..mesh import barycentric, shoelace, signed_areas
 from .disk import _harmonic_measure_disk
 
 __all__ = ["DomainDisk", "CircleDisk", "domain_disk", "riemann_onto", "simply_connected",
-           "snap_corners", "DOMAIN_MESH_POINTS", "ROTATIONS"]
+           "snap_corners", "area_spread", "DOMAIN_MESH_POINTS", "ROTATIONS"]
 
 DOMAIN_MESH_POINTS = 20_000
 """Interior points of the domain's mesh (about twice as many triangles)."""
@@ -348,6 +349,27 @@ def _tri_areas(P: np.ndarray, F: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
 
 
+def area_spread(mapped: np.ndarray, area3: np.ndarray, weight: np.ndarray,
+                clip: float = 2.0) -> float:
+    """Step 3's criterion: the ``weight``-weighted standard deviation of the log area ratios
+    ``r = log(mapped / area3)`` of the triangles, each clipped to ``clip`` about their
+    weighted median (``weight`` sums to 1).
+
+    Clipped, because the corners of the domain shrink their triangles to nothing whatever the
+    rotation, and would decide it alone; about the median, not the mean: a triangle laid
+    flat along a straight side has an area of 0 or 1e-17 as the last bit of its corners
+    rounds (log ratio -686 or -35 with the 1e-300 floor), which moved a mean-centred window
+    by 2 and chose another rotation from one CPU to another (the car-shaped test patch).
+    """
+    ratio = np.log(np.maximum(mapped, 1e-300) / np.maximum(area3, 1e-300))
+    order = np.argsort(ratio, kind="stable")
+    cum = np.cumsum(weight[order])
+    middle = ratio[order[min(int(np.searchsorted(cum, 0.5 * cum[-1])), len(ratio) - 1)]]
+    ratio = np.clip(ratio, middle - clip, middle + clip)
+    mean = float((weight * ratio).sum())
+    return math.sqrt(float((weight * (ratio - mean) ** 2).sum()))
+
+
 def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: Domain, *,
                  landmarks=(), seed: int = 0, bend=None) -> tuple[np.ndarray, dict]:
     """Map the cloud onto a simply connected domain by composing its disk map with the
@@ -408,13 +430,7 @@ def riemann_onto(X: np.ndarray, faces: np.ndarray, disk_uv: np.ndarray, domain: 
     def score(theta: float, mirror: bool, a: complex = 0j) -> tuple[float, float]:
         U = np.zeros((len(X), 2))
         U[used] = image(theta, mirror, used, a)
-        ratio = np.log(np.maximum(_tri_areas(U, faces), 1e-300) / np.maximum(area3, 1e-300))
-        # Clipped: the corners of the domain shrink their triangles to nothing whatever the
-        # rotation, and would decide it alone.
-        mean = float((weight * ratio).sum())
-        ratio = np.clip(ratio, mean - 2.0, mean + 2.0)
-        mean = float((weight * ratio).sum())
-        spread = math.sqrt(float((weight * (ratio - mean) ** 2).sum()))
+        spread = area_spread(_tri_areas(U, faces), area3, weight)
         fit = 0.0
         for index, targets, tree in marks:
             P = image(theta, mirror, index, a)
