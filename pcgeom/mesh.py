@@ -419,6 +419,15 @@ def twins(F: np.ndarray) -> tuple[np.ndarray, bool]:
             not bool((ordered[1:] == ordered[:-1]).any()))
 
 
+def twin_pairs(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(p,) and (p,): the two half-edges of each edge that two triangles of ``F`` share
+    (rows of :func:`half_edges`; the first the lower), from :func:`twins`: ``h % M`` is the
+    triangle of half-edge ``h``."""
+    twin = twins(F)[0]
+    first = np.flatnonzero(twin > np.arange(len(twin)))
+    return first, twin[first]
+
+
 def corner_fans(F: np.ndarray, twin: np.ndarray | None = None) -> np.ndarray:
     """(3M,) the fan of each corner (node ``slot * M + tri``, at ``F[tri, slot]``): the
     components of the triangles' corners, a corner joined to the corner at the same vertex

@@ -112,3 +112,21 @@ def test_fan_counts_and_parts_as_the_graphs_give_them():
         assert count == count0 and np.array_equal(parts, parts0)
     assert fan_counts(twice, twins(twice)[0])[5] == 2
     assert fan_counts(grid, twins(grid)[0])[12] == 2
+
+
+def test_twin_pairs_are_each_shared_edge_s_two_triangles():
+    """:func:`pcgeom.mesh.twin_pairs` against a loop over the edges: a grid that lost two
+    triangles at its centre gives each edge two triangles share once, its halves opposite."""
+    from pcgeom.mesh import twin_pairs
+
+    _, F = _grid(4)
+    F = np.delete(F, np.flatnonzero((F == 12).any(axis=1))[[0, 3]], axis=0)
+    h1, h2 = twin_pairs(F)
+    he, m = half_edges(F), len(F)
+    expected = {}
+    for h, (a, b) in enumerate(he.tolist()):
+        expected.setdefault((min(a, b), max(a, b)), []).append(h)
+    shared = sorted(tuple(hs) for hs in expected.values() if len(hs) == 2)
+    assert sorted(zip(h1.tolist(), h2.tolist())) == shared
+    assert (he[h1, 0] == he[h2, 1]).all() and (he[h1, 1] == he[h2, 0]).all()
+    assert (h1 % m != h2 % m).all()

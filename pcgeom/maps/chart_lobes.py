@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh import boundary_loops, half_edges, shoelace, signed_areas
+from ..mesh import boundary_loops, half_edges, shoelace, signed_areas, twin_pairs
 
 __all__ = ["unfold_lobes", "crossings", "LOBE_RINGS", "LOBE_STEPS"]
 
@@ -91,10 +91,8 @@ def _enclosed(F: np.ndarray, side: np.ndarray, rim_edges: set, n: int) -> np.nda
     he = half_edges(F)
     key = np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
     tri = np.arange(3 * m) % m
-    order = np.argsort(key, kind="stable")
-    sk = key[order]
-    twin = np.flatnonzero(sk[1:] == sk[:-1])
-    f1, f2 = tri[order][twin], tri[order][twin + 1]
+    h1, h2 = twin_pairs(F)
+    f1, f2 = h1 % m, h2 % m
     out = ~side
     both = out[f1] & out[f2]
     graph = sp.coo_matrix((np.ones(int(both.sum())), (f1[both], f2[both])), shape=(m, m))

@@ -233,7 +233,7 @@ def _glue(V: np.ndarray, piece: Piece) -> Piece:
     each glued seam is shorter seams and one crack fewer for the map to open. Chains of seam
     (between vertices where three or more seam edges meet, or one) are tried longest first,
     each kept glued when the part stays one disk."""
-    from ..mesh import half_edges
+    from ..mesh import half_edges, twin_pairs
     from .seams import _chains
 
     n, m = len(V), len(piece.F)
@@ -243,13 +243,10 @@ def _glue(V: np.ndarray, piece: Piece) -> Piece:
     keys = np.minimum(he_mesh[:, 0], he_mesh[:, 1]) * n + np.maximum(he_mesh[:, 0],
                                                                       he_mesh[:, 1])
     eid = np.searchsorted(E[:, 0] * n + E[:, 1], keys)
-    order = np.argsort(eid, kind="stable")
-    se = eid[order]
-    twin = np.flatnonzero(se[1:] == se[:-1])
-    h1, h2 = order[twin], order[twin + 1]
+    h1, h2 = twin_pairs(G)
     # An edge inside the part is a seam when its two triangles do not share its ends there.
     seam = np.zeros(len(E), dtype=bool)
-    seam[se[twin]] = (he_own[h1, 0] != he_own[h2, 1]) | (he_own[h1, 1] != he_own[h2, 0])
+    seam[eid[h1]] = (he_own[h1, 0] != he_own[h2, 1]) | (he_own[h1, 1] != he_own[h2, 0])
     if not seam.any():
         return piece
     length = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
@@ -279,7 +276,7 @@ def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
     75th percentiles over the triangles), its triangles' sides then smoothed (each takes the
     side of most of itself and its neighbours, :data:`SMOOTH` rounds: a cut along triangle
     sides zigzags); the connected parts of each side."""
-    from ..mesh import half_edges
+    from ..mesh import half_edges, twin_pairs
 
     P, F = V[piece.origin], piece.F
     E, G = _graph(P, F)
@@ -292,12 +289,9 @@ def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
     he = half_edges(F)
     k = np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
     eid = np.searchsorted(E[:, 0] * n + E[:, 1], k)
-    tri = np.arange(3 * m) % m
-    order = np.argsort(eid, kind="stable")
-    se = eid[order]
-    twin = np.flatnonzero(se[1:] == se[:-1])
-    f1, f2, inner = tri[order][twin], tri[order][twin + 1], se[twin]
-    length = np.linalg.norm(P[E[inner, 0]] - P[E[inner, 1]], axis=1)
+    h1, h2 = twin_pairs(F)
+    f1, f2, inner = h1 % m, h2 % m, eid[h1]
+    length = np.linalg.norm(P[E[:, 0]] - P[E[:, 1]], axis=1)
     A = sp.coo_matrix((np.ones(2 * len(f1)), (np.r_[f1, f2], np.r_[f2, f1])), shape=(m, m)
                       ).tocsr() + sp.identity(m, format="csr")
     best = None
@@ -307,7 +301,9 @@ def _split(V: np.ndarray, piece: Piece) -> list[Piece]:
             side = (A @ side.astype(np.float64)) * 2 > A.sum(axis=1).A1
         if side.all() or not side.any():
             continue
-        cost = float(length[side[f1] != side[f2]].sum())
+        crossed = np.zeros(len(E), dtype=bool)
+        crossed[inner[side[f1] != side[f2]]] = True
+        cost = float(length[crossed].sum())
         if best is None or cost < best[0]:
             best = (cost, side)
     side = best[1] if best is not None else np.arange(m) < m // 2
