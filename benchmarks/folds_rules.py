@@ -161,17 +161,22 @@ def vote_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
 
 
 def render_vote(rows) -> list[str]:
-    def cell(key, field, fmt):
-        return lambda r: format(r[key][field], fmt)
+    return _side_by_side(rows, "vote", ("off", "on"), [
+        ("voted mesh kept", lambda r: "yes" if r["on"]["kept"] else "no")])
 
+
+def _side_by_side(rows, what: str, names: tuple[str, str], extra=()) -> list[str]:
+    """The table of rows holding two runs of one surface, ``"off"`` and ``"on"`` (the rule
+    ``what`` without and with it, headed by ``names``): angle, flips, ``extra`` columns,
+    wall seconds."""
+    off, on = names
     return H.table([("surface", "{case}"), ("map", "{domain}"),
-                    ("angle, vote off", cell("off", "rad", ".4f")),
-                    ("angle, vote on", cell("on", "rad", ".4f")),
-                    ("flipped off", lambda r: _flips(r["off"])),
-                    ("flipped on", lambda r: _flips(r["on"])),
-                    ("voted mesh kept", lambda r: "yes" if r["on"]["kept"] else "no"),
-                    ("wall s off / on", lambda r: f"{r['off']['wall_s']:.1f} / "
-                                                  f"{r['on']['wall_s']:.1f}")], rows)
+                    (f"angle, {what} {off}", lambda r: f"{r['off']['rad']:.4f}"),
+                    (f"angle, {what} {on}", lambda r: f"{r['on']['rad']:.4f}"),
+                    (f"flipped {off}", lambda r: _flips(r["off"])),
+                    (f"flipped {on}", lambda r: _flips(r["on"])), *extra,
+                    (f"wall s {off} / {on}", lambda r: f"{r['off']['wall_s']:.1f} / "
+                                                      f"{r['on']['wall_s']:.1f}")], rows)
 
 
 @contextlib.contextmanager
@@ -246,7 +251,6 @@ def render(rows) -> list[str]:
                     ("flipped", lambda r: _cell(r, "flip_pct", ".2f") + "%")], rows)
 
 
-
 LID_CASES = (("deep", "uniform", 1.0), ("deep", "uniform", 1.5), ("deep", "uniform", 2.0),
              ("deep", "even", 1.0), ("deep", "even", 1.5), ("pleat", "", 1.5),
              ("pleat", "", 2.0), ("pleat", "", 2.5))
@@ -314,16 +318,8 @@ def lid_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
 
 
 def render_lids(rows) -> list[str]:
-    def cell(key, field, fmt):
-        return lambda r: format(r[key][field], fmt)
+    return _side_by_side(rows, "lids", ("kept", "cut"))
 
-    return H.table([("surface", "{case}"), ("map", "{domain}"),
-                    ("angle, lids kept", cell("off", "rad", ".4f")),
-                    ("angle, lids cut", cell("on", "rad", ".4f")),
-                    ("flipped kept", lambda r: _flips(r["off"])),
-                    ("flipped cut", lambda r: _flips(r["on"])),
-                    ("wall s kept / cut", lambda r: f"{r['off']['wall_s']:.1f} / "
-                                                    f"{r['on']['wall_s']:.1f}")], rows)
 
 if __name__ == "__main__":
     p = H.parser(__doc__)
