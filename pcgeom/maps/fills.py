@@ -67,7 +67,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import cross3, half_edges as _directed, successor_walks, twins
-from .topology_batch import CloudTree, Corners, FillMemo
+from .topology_batch import CloudTree, Corners, FillMemo, unmeshed
 
 __all__ = ["refill_small_loops"]
 
@@ -300,12 +300,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         walk_of_half = np.full(3 * m, -1, dtype=np.int64)
         walk_of_half[boundary] = walk_id
         corners = Corners(faces, n)
-        used = np.zeros(n, dtype=bool)
-        used[faces.ravel()] = True
-        if exclude is not None:
-            used |= np.asarray(exclude, dtype=bool)
-        free = np.flatnonzero(~used)
-        tree = cKDTree(X[free]) if len(free) else None
+        free, tree = unmeshed(X, faces, exclude)
         busy = np.zeros(m, dtype=bool)
         fills, added_edges = [], set()
 

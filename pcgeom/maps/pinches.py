@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import fan_counts, half_edges as _directed, twins
-from .topology_batch import CloudTree, Corners, FillMemo, cut_at_repeats
+from .topology_batch import CloudTree, Corners, FillMemo, cut_at_repeats, unmeshed
 
 __all__ = ["mend_pinches"]
 
@@ -103,8 +103,6 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         The fills' figures that earlier repairs of the cloud found (bound to it); None: a
         memo of this call's own.
     """
-    from scipy.spatial import cKDTree
-
     from .fills import REFILL_SHORT, _empty_radius, _flat, _least_cosine
     from .topology import enclosing_radius, fill_loop, rim_walks
 
@@ -123,7 +121,6 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         twin, consistent = twins_of(faces)
         if not consistent:
             break
-        vertex = faces.T.ravel()
         fans_at = np.zeros(n, dtype=np.int64)
         counted = fan_counts(faces, twin)
         fans_at[:len(counted)] = counted
@@ -146,12 +143,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         H = _directed(faces)
         corners = Corners(faces, n)  # (its radix sort; no sort of every half-edge)
         corner, cstart = corners.order, corners.start
-        used = np.zeros(n, dtype=bool)
-        used[vertex] = True
-        if exclude is not None:
-            used |= np.asarray(exclude, dtype=bool)
-        free = np.flatnonzero(~used)
-        tree = cKDTree(X[free]) if len(free) else None
+        free, tree = unmeshed(X, faces, exclude)
         busy = np.zeros(m, dtype=bool)
         deferred = np.zeros(n, dtype=bool)
         gone, fills = [], []

@@ -65,7 +65,7 @@ from .fills import refill_small_loops
 from .pinches import mend_pinches
 from .regions import retriangulate_regions
 from .topology_batch import (FILLS, CloudTree, KnownTwins, add_fills, cut_at_repeats,
-                             edge_keys, main_faces, sub_twins, triage)
+                             edge_keys, main_faces, sub_twins, triage, unmeshed)
 
 __all__ = ["Topology", "measure", "repair", "require_open", "closed_message"]
 
@@ -684,12 +684,7 @@ def _fill_pass(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndar
     from scipy.spatial import cKDTree
 
     n = len(X)
-    used = np.zeros(n, dtype=bool)
-    used[faces.ravel()] = True
-    if exclude is not None:
-        used |= np.asarray(exclude, dtype=bool)
-    free = np.flatnonzero(~used)
-    tree = cKDTree(X[free]) if len(free) else None
+    free, tree = unmeshed(X, faces, exclude)
     edges = edge_keys(faces, n, found)
 
     is_meshed = np.bincount(faces.ravel(), minlength=n) > 0

@@ -268,6 +268,20 @@ class CloudTree:
         return set(found[meshed[found]].tolist())
 
 
+def unmeshed(X: np.ndarray, faces: np.ndarray, exclude: np.ndarray | None = None):
+    """The points that no triangle of ``faces`` uses and ``exclude`` does not name, (k,)
+    int64, and their k-d tree (None when there are none): the points a fill may take in
+    round a loop."""
+    from scipy.spatial import cKDTree
+
+    used = np.zeros(len(X), dtype=bool)
+    used[faces.ravel()] = True
+    if exclude is not None:
+        used |= np.asarray(exclude, dtype=bool)
+    free = np.flatnonzero(~used)
+    return free, (cKDTree(X[free]) if len(free) else None)
+
+
 def add_fills(faces: np.ndarray, fills: list[np.ndarray]) -> tuple[np.ndarray, int]:
     """``faces`` with the fills whose directed edges are taken by no triangle before them
     (the mesh's, then the earlier fills'); how many fills were added."""
