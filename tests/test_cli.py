@@ -764,8 +764,11 @@ def test_annulus_auto_is_reported_and_judged_with_its_radius(tmp_path, capsys):
     assert report["domain"].startswith("annulus:0.")
     inner = float(report["domain"].split(":")[1].split(",")[0])
     assert inner == pytest.approx(0.4, rel=0.1)  # measured 0.424 on this coarse 48-gon
-    # Under 0.03 before the pinches' mend (ee9ef62: a rim vertex's second fan taken off and
-    # the loops it leaves filled), 0.0318 since: a coarse 48-gon ring, 576 points.
+    # 0.0072 without the pinches' mend (ee9ef62), 0.0318 with it: it takes off the one-triangle
+    # second fan of an inner point (ring 6 of 12; the triangle spans rings 6-9 over an
+    # unmeshed point of ring 8) and fills it, no rim point; the outer-rim point at that angle,
+    # whose own second fan (two triangles from ring 8) stays, then lies on a boundary walk of
+    # 8 points, not 17, and maps at radius 0.94, not on the circle.
     assert report["surface_hausdorff"] < 0.035
     # Measured: 3 of 1056 true triangles flipped, on the rim, where this coarse grid's bare
     # local mesh skips a rim point (37 of its triangles are a second fan at a vertex).
