@@ -161,18 +161,18 @@ def vote_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
 
 
 def render_vote(rows) -> list[str]:
-    return _side_by_side(rows, "vote", ("off", "on"), [
+    return _side_by_side(rows, ("off", "on"), "angle, vote", [
         ("voted mesh kept", lambda r: "yes" if r["on"]["kept"] else "no")])
 
 
-def _side_by_side(rows, what: str, names: tuple[str, str], extra=()) -> list[str]:
-    """The table of rows holding two runs of one surface, ``"off"`` and ``"on"`` (the rule
-    ``what`` without and with it, headed by ``names``): angle, flips, ``extra`` columns,
-    wall seconds."""
+def _side_by_side(rows, names: tuple[str, str], angle: str, extra=()) -> list[str]:
+    """The table of rows holding two runs of one surface, ``"off"`` and ``"on"``, headed by
+    ``names`` (the angle columns by ``angle`` too): angle, flips, ``extra`` columns, wall
+    seconds."""
     off, on = names
     return H.table([("surface", "{case}"), ("map", "{domain}"),
-                    (f"angle, {what} {off}", lambda r: f"{r['off']['rad']:.4f}"),
-                    (f"angle, {what} {on}", lambda r: f"{r['on']['rad']:.4f}"),
+                    (f"{angle} {off}", lambda r: f"{r['off']['rad']:.4f}"),
+                    (f"{angle} {on}", lambda r: f"{r['on']['rad']:.4f}"),
                     (f"flipped {off}", lambda r: _flips(r["off"])),
                     (f"flipped {on}", lambda r: _flips(r["on"])), *extra,
                     (f"wall s {off} / {on}", lambda r: f"{r['off']['wall_s']:.1f} / "
@@ -222,17 +222,8 @@ def cut_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
 
 
 def render_cut(rows) -> list[str]:
-    def cell(key, field, fmt):
-        return lambda r: format(r[key][field], fmt)
-
-    return H.table([("surface", "{case}"), ("map", "{domain}"),
-                    ("angle before", cell("off", "rad", ".4f")),
-                    ("angle now", cell("on", "rad", ".4f")),
-                    ("flipped before", lambda r: _flips(r["off"])),
-                    ("flipped now", lambda r: _flips(r["on"])),
-                    ("cut mesh kept", lambda r: "yes" if r["on"]["kept"] else "no"),
-                    ("wall s before / now", lambda r: f"{r['off']['wall_s']:.1f} / "
-                                                      f"{r['on']['wall_s']:.1f}")], rows)
+    return _side_by_side(rows, ("before", "now"), "angle", [
+        ("cut mesh kept", lambda r: "yes" if r["on"]["kept"] else "no")])
 
 
 def _flips(run: dict) -> str:
@@ -318,7 +309,7 @@ def lid_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
 
 
 def render_lids(rows) -> list[str]:
-    return _side_by_side(rows, "lids", ("kept", "cut"))
+    return _side_by_side(rows, ("kept", "cut"), "angle, lids")
 
 
 if __name__ == "__main__":
