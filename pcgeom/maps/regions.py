@@ -211,7 +211,7 @@ def retriangulate_regions(X: np.ndarray, normals: np.ndarray, faces: np.ndarray,
                 if T.tobytes() in failed:  # (the region of a loop met before, from another)
                     break
                 failed.add(T.tobytes())
-                F = _relaid(X, normals, faces[T], loop, members, rim, walks)
+                F = _relaid(X, normals, faces[T], loop, members=members, rim=rim, walks=walks)
                 if F is None:
                     break  # (a wider ring lays out no better: measured)
                 if not _flat_enough(X, normals, F, faces[T]):
@@ -288,7 +288,7 @@ def _layouts(X: np.ndarray, normals: np.ndarray, pts: np.ndarray):
     yield vecs[:, -2:] * np.sqrt(np.maximum(vals[-2:], 0.0))
 
 
-def _relaid(X: np.ndarray, normals: np.ndarray, T: np.ndarray, loop: np.ndarray,
+def _relaid(X: np.ndarray, normals: np.ndarray, T: np.ndarray, loop: np.ndarray, *,
             members: set, rim: np.ndarray, walks: list) -> np.ndarray | None:
     """The Delaunay triangles of the region ``T``'s points (its triangles, (K, 3)) inside its
     outer rim ``loop`` (its points in order, each rim edge ``loop[i] -> loop[i + 1]`` a
