@@ -63,7 +63,7 @@ from ..mesh import (corner_fans, cross3, drop_smaller_fans, face_keys, fan_count
                     half_edges as _directed, twins)
 from .fills import refill_small_loops
 from .pinches import mend_pinches
-from .regions import retriangulate_regions
+from .regions import fill_slits, retriangulate_regions
 from .topology_batch import (FILLS, CloudTree, KnownTwins, add_fills, cut_at_repeats,
                              edge_keys, main_faces, sub_twins, triage, unmeshed)
 
@@ -612,8 +612,10 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
             if REGIONS and after[0]["genus"] == 0 and after[0]["boundary_loops"] > 1:
                 relaid_faces, relaid = retriangulate_regions(X, normals, faces, h, bound, exclude,
                                                              cloud=trees, twins_of=known.of)
-                if relaid:
-                    faces, filled = relaid_faces, filled + relaid
+                relaid_faces, slits = fill_slits(X, normals, relaid_faces, h, bound, exclude,
+                                                 cloud=trees)
+                if relaid or slits:
+                    faces, filled = relaid_faces, filled + relaid + slits
                     after = _measure(faces, None, known.of)
             return faces, _topology(before, pinched_before, *after, filled, 0)
         faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude,
