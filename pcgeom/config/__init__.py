@@ -330,6 +330,24 @@ class LocalMeshConfig:
     flipped -> 0.0380, 0.93%, 2 spacings apart 0.0201, 0.45% -> 0.0109, 0.17%; the pleat 1.5
     spacings apart 0.0251 -> 0.0154 rad; grooves 2-3 spacings wide, the pleats 2-2.5 apart and
     the shared surfaces, free and onto the disk, unchanged. False: off."""
+    uv_remesh: bool = False
+    """The local mesh built again from its free map (:mod:`pcgeom.maps.uvmesh`: a Delaunay
+    triangulation of the points in the map's plane, kept where its triangles are short in
+    space and face their normals, repaired, grown into the slits where the first map folded),
+    mapped, and kept when it has fewer boundary loops, maps better on its own mesh and leaves
+    at most 2% more points out (:func:`pcgeom.maps.uvmesh.remeshed`). Measured (``fast``,
+    on the true triangles, off -> on, one run each, load 7-8, main be093d9, 2026-12-06):
+    with the clouds' normals, peaks_three_cgal 6 -> 4 boundary loops (true 1), 0.0404 ->
+    0.0377 rad, 1.9x the CPU; the lips sheet (11k, walls 0.75 spacings apart) 19 -> 13,
+    0.0273 -> 0.0241 rad, 0.73 -> 0.72% flipped, 1.7x; face_human_choi (18 loops, its eyes'
+    slits now filled by the repair), peaks_7holes_choi, face_3holes_small_choi and the pleats
+    not kept (no fewer loops, or no better map on its own mesh), 1.2-1.4x the CPU. Bare,
+    where the first map folds over flaps (face_human_choi 2% flipped, the lips) or the new
+    map scores worse (the pleats), it is not kept: every shared surface's free and disk map
+    the same, 1.0-1.15x the CPU; nine holed sheets (6000 points, uniform/grid/scan, seeds
+    2-4): holes kept 34 -> 34, false loops 7 -> 3. Off by default for that cost: issue 36
+    asks the same times within 1.2x, and on the shared surfaces it is kept on
+    peaks_three_cgal alone."""
     refine_steps: int = 0
     """Steps of the LEG refinement (:class:`RefineConfig`, same-sheet pairs) after LSCM.
     0: none. Measured on face_human_choi from a 0.040 rad local-mesh map: 300 steps raise it to
@@ -414,6 +432,9 @@ class LocalMeshConfig:
                 or not 0 < self.robust_floor <= 1):
             raise InputError(f"LocalMeshConfig.robust_floor: expected a number in (0, 1], "
                              f"got {self.robust_floor!r}")
+        if not isinstance(self.uv_remesh, bool):
+            raise InputError(f"LocalMeshConfig.uv_remesh: expected a bool, "
+                             f"got {type(self.uv_remesh).__name__}")
         if not isinstance(self.vote, bool):
             raise InputError(f"LocalMeshConfig.vote: expected a bool, "
                              f"got {type(self.vote).__name__}")

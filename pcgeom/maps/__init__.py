@@ -7,6 +7,8 @@ module                 what it makes
 :mod:`.localmesh`      the local mesh of a cloud (same-sheet tangent fans, merged into
                        a manifold); :func:`mesh_cloud`: outliers, surface test,
                        normals, mesh
+:mod:`.uvmesh`         the local mesh built again from its free map (a Delaunay
+                       triangulation in the map's plane, kept where it is the surface's)
 :mod:`.normals`        normals of a bare cloud (PCA, oriented by propagation)
 :mod:`.free`           the free-boundary conformal map (LSCM of the local mesh), the
                        conformal factor; :func:`free_map`

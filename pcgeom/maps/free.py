@@ -346,6 +346,9 @@ def free_start(Xn: np.ndarray, normals: np.ndarray | None, config: ParamConfig, 
     if record["normals"] == "estimated" and CUT_ROUNDS:
         uv, mesh, normals, robust = _cut(Xn, (uv, mesh, normals, robust), solve, settings,
                                          outlier=outlier, record=record)
+    if settings.uv_remesh:
+        uv, mesh, robust = _uv_remeshed(Xn, (uv, mesh, normals, robust), solve,
+                                        outlier=outlier, record=record)
     record["robust_rounds"] = settings.robust_rounds
     # Triangles the robust round weighted below 1/2 (None without a round).
     record["robust_downweighted"] = robust.get("downweighted")
@@ -606,6 +609,14 @@ def _cut(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.ndarray,
     record.update(cut_kept=True, faces=again.n_faces, boundary_edges=again.boundary_edges,
                   unmeshed=int((~again.main).sum()), **topology_record(again.topology))
     return best[:4]
+
+
+def _uv_remeshed(Xn: np.ndarray, kept: tuple, solve, *, outlier: np.ndarray, record: dict
+                 ) -> tuple:
+    """:func:`pcgeom.maps.uvmesh.remeshed` (``LocalMeshConfig.uv_remesh``)."""
+    from .uvmesh import remeshed
+
+    return remeshed(Xn, kept, solve, outlier=outlier, record=record)
 
 
 def _score_above(score: tuple, allow: float, gain: float = 1.0) -> tuple[float, float]:
