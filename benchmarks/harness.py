@@ -41,7 +41,7 @@ os.environ["PYTHONPATH"] = os.pathsep.join(
 SECTIONS = ("bench_schedules", "gpu", "bench_apps", "bench_apps_strays", "bench_apps_loops",
             "bench_batch", "bench_scans",
             "bench_scans_large", "bench_scans_denoise", "bench_domains", "bench_domain_maps",
-            "bench_folds", "bench_scans_small", "bench_sphere", "bench_reconstruct_sphere",
+            "bench_folds", "bench_folds_cortex", "bench_scans_small", "bench_sphere", "bench_reconstruct_sphere",
             "bench_topology", "bench_bridges", "bench_atlas", "bench_landmarks")
 """The marked sections of BENCHMARKS.md, in file order; bench_param.py writes the top."""
 
