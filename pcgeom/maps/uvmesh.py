@@ -60,7 +60,7 @@ points, seed 2, kept 3 false loops, with 4 one, as the local mesh)."""
 
 
 def uv_faces(X: np.ndarray, uv: np.ndarray, normals: np.ndarray, points: np.ndarray,
-             h: np.ndarray, bound: float, cloud=None, rim: np.ndarray | None = None
+             h: np.ndarray, bound: float, *, cloud=None, rim: np.ndarray | None = None
              ) -> np.ndarray:
     """Steps 1-2: the Delaunay triangles of ``uv[points]`` (rows of ``X``, counter-clockwise
     in the map) no wider in space than ``bound`` local spacings ``h`` (enclosing radius over
@@ -164,7 +164,7 @@ def _among(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
     return ordered[at] == values
 
 
-def _repair(X: np.ndarray, normals: np.ndarray, F: np.ndarray, h: np.ndarray, bound: float,
+def _repair(X: np.ndarray, normals: np.ndarray, F: np.ndarray, h: np.ndarray, bound: float, *,
             exclude: np.ndarray | None, tree):
     """Step 3: the open mesh's repair (:func:`pcgeom.maps.topology.repair`) with the fill
     pass's fills under the re-meshes' empty-circle rule (no triangle leaving an empty circle
@@ -226,10 +226,10 @@ def uv_mesh(X: np.ndarray, uv: np.ndarray, normals: np.ndarray, mesh, *,
     edges, on_rim = edge_sides(mesh.faces[mesh.main[mesh.faces].all(axis=1)])
     rim = np.zeros(n, dtype=bool)
     rim[edges[on_rim].ravel()] = True
-    F = uv_faces(X, uv, normals, points, h, bound, tree, rim)
+    F = uv_faces(X, uv, normals, points, h, bound, cloud=tree, rim=rim)
     if grow:
         F = grow_into_holes(mesh.faces[mesh.main[mesh.faces].all(axis=1)], F, n)
-    faces, topology = _repair(X, normals, F, h, bound, exclude, tree)
+    faces, topology = _repair(X, normals, F, h, bound, exclude=exclude, tree=tree)
     return LocalMesh(faces=faces, main=main_part(faces, n),
                      boundary_edges=int(edge_sides(faces)[1].sum()), candidates=len(F),
                      topology=topology, normals=mesh.normals)
