@@ -458,7 +458,8 @@ def _voted(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.ndarray,
 
 
 def _rebuilt(Xn: np.ndarray, normals: np.ndarray, kept: tuple, solve, settings, *,
-             outlier: np.ndarray, bridges: bool, rounds: int, through: bool = False) -> tuple:
+             outlier: np.ndarray, bridges: bool, rounds: int, through: bool = False,
+             source: tuple | None = None) -> tuple:
     """The local mesh built from ``normals`` (``bridges``: with its bridges cut,
     :func:`pcgeom.maps.localmesh.local_mesh`; the upright rule, ``settings.facing``),
     mapped, and rebuilt from its own vertex normals
@@ -468,13 +469,15 @@ def _rebuilt(Xn: np.ndarray, normals: np.ndarray, kept: tuple, solve, settings, 
     :data:`VOTE_UNMESHED` more points out than the kept one (``kept``, ``(uv, mesh, normals,
     stats)``) is not compared and ends them too, unless ``through``: then its own normals
     start the next round (those of points whose normals its cut left out come back from
-    their meshed neighbours'). Returns the best ``(uv, mesh, normals, stats, score)`` (None
-    when no mesh qualified) and the scores (:func:`_map_score`), the kept map's first."""
+    their meshed neighbours'). ``source``: ``(mesh, its normals)`` whose own vertex normals
+    the first round is built from instead of ``normals``. Returns the best ``(uv, mesh,
+    normals, stats, score)`` (None when no mesh qualified) and the scores
+    (:func:`_map_score`), the kept map's first."""
     uv, mesh, _, _ = kept
     limit = (~mesh.main).sum() + VOTE_UNMESHED * len(Xn)
     allow = VOTE_ALLOW * mesh.n_faces
     scores = [_map_score(Xn, mesh, uv)]
-    best, source = None, None  # source: the mesh and normals the next round starts from
+    best = None  # source: the mesh and normals the next round starts from
     for _ in range(1 + rounds):
         if source is not None:
             normals = mesh_normals(Xn, *source)
@@ -600,8 +603,12 @@ def _cut(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.ndarray,
     kept first) and, when kept, the new mesh's ``faces``, ``boundary_edges``, ``unmeshed``
     and topology."""
     uv, mesh, normals, stats = kept
+    # The second orientation's kept mesh is this very build of these normals: its rounds
+    # start from its own normals.
+    again = record.get("arc_kept", False)
     best, scores = _rebuilt(Xn, normals, kept, solve, settings, outlier=outlier, bridges=True,
-                            rounds=CUT_ROUNDS, through=True)
+                            rounds=CUT_ROUNDS - again, through=True,
+                            source=(mesh, normals) if again else None)
     record.update(cut_kept=False, cut_scores=[list(s) for s in scores])
     if not _better(best, scores[0], VOTE_ALLOW * mesh.n_faces):
         return kept
