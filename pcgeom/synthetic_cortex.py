@@ -164,7 +164,7 @@ def _frame(uv, sulci, sphere, eps=1e-5):
     return X, cross / area[:, None], area, sulcus, piece, gap, depth
 
 
-def _layout(n: int, sulci: int, depth, gap, lip: float, meander: float, rng):
+def _layout(n: int, sulci: int, depth, gap, lip: float, meander: float, *, rng):
     """The sulci (centre lines out from a flat of 8 spacings, flats of at least 4 between)
     and the disk's radius that makes the surface's area ``n / POISSON_EDGE**2``."""
     out, edge = [], 8.0
@@ -252,7 +252,7 @@ def cortex_cap(n: int = 48000, *, sulci: int = 2, depth=(3.0, 12.0), gap=(0.5, 3
     if sampling not in SAMPLINGS:
         raise ValueError(f"sampling: expected one of {', '.join(SAMPLINGS)}, got {sampling!r}")
     sulci_, radius = _layout(n, int(sulci), depth, gap, float(lip), float(meander),
-                             np.random.default_rng(shape))
+                             rng=np.random.default_rng(shape))
     sphere = 2.0 * radius
     rng = np.random.default_rng(seed)
     uv = np.empty((0, 2))
