@@ -332,3 +332,20 @@ def test_a_slit_the_sampling_leaves_is_filled_and_holes_kept(monkeypatch):
     assert on[0] <= off[0] - 2 and on[1] == off[1] == 0, (off, on)
     assert on[2] <= off[2] + 1e-4 and on[3] <= off[3], (off, on)
     assert got["face_3holes_small_choi", True][:2] == (4, 0)
+
+
+def test_small_set_helpers_match_numpy():
+    """The repair's set helpers (Python sets below SMALL_SET, numpy above) return exactly
+    numpy's setdiff1d / isin: values, order and dtype, on both sides of the switch."""
+    from pcgeom.maps.topology_batch import SMALL_SET, isin, setdiff
+
+    rng = np.random.default_rng(0)
+    for k in (0, 1, 7, 60, SMALL_SET, SMALL_SET + 1, 4 * SMALL_SET):
+        for dtype in (np.int64, np.int32):
+            a = rng.integers(0, 3 * k + 1, k).astype(dtype)
+            b = rng.integers(0, 3 * k + 1, k // 2).astype(dtype)
+            got, want = setdiff(a, b), np.setdiff1d(a, b)
+            assert got.dtype == want.dtype and np.array_equal(got, want)
+            grid = a[: k - k % 2].reshape(-1, 2)
+            assert np.array_equal(isin(grid, b), np.isin(grid, b))
+            assert np.array_equal(isin(a, set(b.tolist())), np.isin(a, b))

@@ -67,7 +67,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import cross3, half_edges as _directed, successor_walks, twins
-from .topology_batch import CloudTree, Corners, FillMemo, unmeshed
+from .topology_batch import CloudTree, Corners, FillMemo, isin, setdiff, unmeshed
 
 __all__ = ["refill_small_loops"]
 
@@ -260,7 +260,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
         corner's normal, its widest triangle or empty circle (None: not yet found)]."""
         # (A fill of the loop alone leaves the points inside out: no re-mesh.)
         F = fill_loop(X, normals, loop, inner, loop_alone=not len(inside))
-        if F is None or not np.isin(inside, F).all():
+        if F is None or not isin(inside, F).all():
             return [None, None, None]
         return [F, _least_cosine(X, normals, F), None]
 
@@ -369,7 +369,7 @@ def refill_small_loops(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h:
                 # one of its ends' normals: no fill passes the turn test (a cheap test first).
                 return None
             region = np.unique(faces[T])
-            inside = np.setdiff1d(region, loop)
+            inside = setdiff(region, loop)
             if exclude is not None:
                 inside = inside[~np.asarray(exclude, dtype=bool)[inside]]
             inner = inside

@@ -49,7 +49,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import fan_counts, half_edges as _directed, twins
-from .topology_batch import CloudTree, Corners, FillMemo, cut_at_repeats, unmeshed
+from .topology_batch import (CloudTree, Corners, FillMemo, cut_at_repeats, isin, setdiff,
+                             unmeshed)
 
 __all__ = ["mend_pinches"]
 
@@ -149,9 +150,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         gone, fills = [], []
         taken: set = set()  # the fills' directed edges this round
 
-        def tris_at(vs: np.ndarray) -> np.ndarray:
-            parts = [corner[cstart[v]:cstart[v + 1]] % m for v in vs.tolist()]
-            return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+        tris_at = corners.triangles
 
         def has_half(keys: np.ndarray) -> np.ndarray:
             return corners.has_half(keys // n, keys % n)
@@ -170,16 +169,16 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
             if busy[patch].any():
                 deferred[v] = True
                 return None
-            keep = np.setdiff1d(patch, T_off)
+            keep = setdiff(patch, T_off)
             if not len(keep):
                 return None
             off_keys = set((H[np.concatenate([T_off + q * m for q in range(3)])] @ [n, 1]
                             ).tolist())
             P = faces[keep]
             prim, pwalks = rim_walks(P)
-            at_pts = np.isin(prim, pts).any(axis=1)  # (each rim edge's, for all walks at once)
+            at_pts = isin(prim, pts).any(axis=1)  # (each rim edge's, for all walks at once)
             back = prim[:, 1] * n + prim[:, 0]
-            genuine = ~has_half(back) | np.isin(back, list(off_keys))
+            genuine = ~has_half(back) | isin(back, off_keys)
             found = []
             for w in pwalks:
                 if not at_pts[w].any():
@@ -187,7 +186,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
                 if not genuine[w].all():
                     return None  # the loop runs out of the patch: not a small one
                 found.append(prim[w, 0])
-            orphans = np.setdiff1d(pts, P.ravel())
+            orphans = setdiff(pts, P)
             if exclude is not None:
                 orphans = orphans[~np.asarray(exclude, dtype=bool)[orphans]]
             out = []
@@ -200,7 +199,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
                         near = free[np.asarray(tree.query_ball_point(centre, radius),
                                                dtype=np.int64)]
                         inner = np.union1d(inner, near)
-                    E = np.sort(_directed(faces[np.setdiff1d(tris_at(loop), T_off)]), axis=1)
+                    E = np.sort(_directed(faces[setdiff(tris_at(loop), T_off)]), axis=1)
                     Ek = np.unique(E[:, 0] * n + E[:, 1])
                     key = ("pinch", loop.tobytes(), inner.tobytes(), Ek.tobytes(),
                            normals[loop].tobytes(), normals[inner].tobytes())
@@ -219,18 +218,18 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
             if not out:
                 return None
             G = np.concatenate(out)
-            if not np.isin(orphans, G).all():
+            if not isin(orphans, G).all():
                 return None
             # No empty circle wider than the fills may be among the triangles round them:
             # a hole of the surface that the mesh's long triangles span but for this loop.
-            R = faces[np.setdiff1d(tris_at(np.unique(G)), T_off)]
+            R = faces[setdiff(tris_at(np.unique(G)), T_off)]
             if len(R):
                 gap = _empty_radius(X, R, cloud.tree) / np.maximum(h[R].mean(axis=1), 1e-300)
                 if float(gap.max()) > PINCH_WIDTH * bound:
                     return None
             D = _directed(G)
             keys = D[:, 0] * n + D[:, 1]
-            clash = has_half(keys) & ~np.isin(keys, list(off_keys))
+            clash = has_half(keys) & ~isin(keys, off_keys)
             if clash.any() or len(set(keys.tolist())) != len(keys) or not taken.isdisjoint(
                     keys.tolist()):
                 return None

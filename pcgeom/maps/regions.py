@@ -55,7 +55,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh import cross3, fan_counts, half_edges as _directed, twins
-from .topology_batch import CloudTree, Corners, main_faces
+from .topology_batch import CloudTree, Corners, isin, main_faces, setdiff
 
 __all__ = ["retriangulate_regions", "fill_slits"]
 
@@ -234,8 +234,7 @@ def retriangulate_regions(X: np.ndarray, normals: np.ndarray, faces: np.ndarray,
                 lo, hi = inner // n, inner % n
                 old = np.sort(_directed(faces[T]), axis=1)
                 own = set((old[:, 0] * n + old[:, 1]).tolist())
-                outside = (corners.has_half(lo, hi) | corners.has_half(hi, lo)) & ~np.isin(
-                    inner, np.fromiter(own, dtype=np.int64, count=len(own)))
+                outside = (corners.has_half(lo, hi) | corners.has_half(hi, lo)) & ~isin(inner, own)
                 if outside.any() or not taken_edges.isdisjoint(ek.tolist()):
                     continue
                 busy[T] = True
@@ -334,7 +333,7 @@ def _relaid(X: np.ndarray, normals: np.ndarray, T: np.ndarray, loop: np.ndarray,
     from .topology import _rim_is
 
     pts = np.unique(T)
-    inner = np.setdiff1d(pts, loop)
+    inner = setdiff(pts, loop)
     order = np.concatenate([loop, inner])
     k = len(loop)
     for Q in _layouts(X, normals, order):

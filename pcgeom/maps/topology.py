@@ -273,7 +273,7 @@ def rim_walks(F: np.ndarray, twin: np.ndarray | None = None
     indices into them, in order; a pinched vertex may come twice). ``twin``:
     :func:`pcgeom.mesh.twins`' first, when already found."""
     rim, following = _rim_next(F, twin)
-    seen = np.zeros(len(rim), dtype=bool)
+    seen = [False] * len(rim)  # (a list: a numpy bool per step costs more)
     nxt = following.tolist()
     walks = []
     for first in range(len(rim)):
