@@ -109,3 +109,37 @@ def test_the_arc_signs_orient_the_walls_of_a_thin_fold():
     _, _, hoppe = arc_relation(X, s.normals, knn.first(16)[1], arc=0.0)
     assert (d < 0).sum() < 0.4 * (hoppe < 0).sum()  # measured 2876 against 12691
 
+
+
+def test_the_cut_rounds_run_only_where_the_mesh_shows_a_bridge():
+    """shows_bridges: a grid's mesh with its upward normals shows none; one corner's normal
+    turned down shows one. A bare smooth sheet then maps without the cut rounds (no scores
+    recorded), bare grooves 1.5 spacings apart with them."""
+    import warnings
+
+    import pcgeom
+    from pcgeom.maps.bridges import shows_bridges
+    from pcgeom.synthetic_folds import deep_folds
+
+    g = np.stack(np.meshgrid(np.arange(6.0), np.arange(6.0)), -1).reshape(-1, 2)
+    X = np.column_stack([g, np.zeros(len(g))])
+    F = np.array([[i, i + 1, i + 7] for i in range(29) if i % 6 < 5]
+                 + [[i, i + 7, i + 6] for i in range(29) if i % 6 < 5])
+    N = np.tile([0.0, 0.0, 1.0], (len(X), 1))
+    assert not shows_bridges(X, N, F)
+    N[14] = -N[14]
+    assert shows_bridges(X, N, F)
+
+    fast = pcgeom.get_preset("fast")
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-1, 1, (2000, 2))
+    sheet = np.column_stack([xy, 0.3 * np.sin(2 * xy[:, 0]) * np.cos(xy[:, 1])])
+    grooves = deep_folds(2500, gap=1.5, depths=(4.0, 8.0), sampling="uniform", seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        flat = pcgeom.parametrize(sheet, config=fast, seed=0, progress=False)
+        folded = pcgeom.parametrize(grooves.points, config=fast, seed=0, progress=False)
+    record = next(r for r in flat.history if "cut_kept" in r)
+    assert record["cut_scores"] == [] and not record["cut_kept"]
+    record = next(r for r in folded.history if "cut_kept" in r)
+    assert len(record["cut_scores"]) >= 2

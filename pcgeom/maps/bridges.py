@@ -272,6 +272,31 @@ def bridge_candidates(normals: np.ndarray, faces: np.ndarray,
     return np.min(dots, axis=0, initial=np.inf) < opposite if len(F) else np.zeros(0, bool)
 
 
+def shows_bridges(X: np.ndarray, normals: np.ndarray, faces: np.ndarray) -> bool:
+    """Whether a mesh shows what a build with its bridges cut would cut: a triangle with two
+    corners' normals facing apart (:func:`bridge_candidates`) or one turned from a corner's
+    normal (:func:`disagreeing`). :func:`pcgeom.maps.free._cut` runs its rounds only then:
+    they rebuilt and solved a smooth sheet's mesh one to three times for nothing (the
+    five-bump height field, 200k uniform bare points: the whole run 25 -> 65 s). Measured on
+    the 26 runs of ``benchmarks/folds_rules.cut_rows`` (6000 points, seeds 0-1, and the
+    shared open surfaces): every run whose cut mesh was kept shows one (the fewest: the
+    pleat 2.5 spacings apart, cloud seed 0: 2 turned triangles); the runs that show none
+    (grooves 3 apart evenly sampled, face_3holes_small_choi) did not keep it.
+
+    Parameters
+    ----------
+    X : (N, 3) float64
+    normals : (N, 3) float64
+        Unit normals, consistently oriented (the ones the mesh was built from).
+    faces : (M, 3) int64
+
+    Returns
+    -------
+    bool
+    """
+    return bool(bridge_candidates(normals, faces).any() or disagreeing(X, normals, faces).any())
+
+
 def cut_bridges(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, repair, *,
                 opposite: float = OPPOSITE, **where) -> tuple[np.ndarray, Topology]:
     """The local mesh repaired (``repair``, :func:`pcgeom.maps.topology.repair`), less its

@@ -56,6 +56,7 @@ from ..progress import Progress
 from ..train.data import TrainData
 from ..train.objective import LOSS_TERMS, Objective
 from ._sparse import fill_order, ordering_name, solver_name, spd_factor
+from .bridges import shows_bridges
 from .localmesh import (MIN_MESHED, STANDING_QUALITY, LocalMesh, _submesh, local_mesh,
                         mesh_cloud, mesh_flips, mesh_normals, place_rest, standing,
                         topology_record)
@@ -601,8 +602,12 @@ def _cut(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.ndarray,
     :data:`VOTE_ALLOW`, then angle) without leaving :data:`VOTE_UNMESHED` more points out.
     ``record`` receives ``cut_kept`` and ``cut_scores`` (each map's ``[flips, angle]``, the
     kept first) and, when kept, the new mesh's ``faces``, ``boundary_edges``, ``unmeshed``
-    and topology."""
+    and topology. Not run on a kept mesh that shows no bridge
+    (:func:`pcgeom.maps.bridges.shows_bridges`)."""
     uv, mesh, normals, stats = kept
+    if not shows_bridges(Xn, normals, mesh.faces):
+        record.update(cut_kept=False, cut_scores=[])
+        return kept
     # The second orientation's kept mesh is this very build of these normals: its rounds
     # start from its own normals.
     again = record.get("arc_kept", False)
