@@ -178,6 +178,8 @@ def test_configs_are_frozen(obj, attr):
          "LocalMeshConfig.normal_round_flips: expected a number in [0, 1), got False"),
         (lambda: LocalMeshConfig(vote=1),
          "LocalMeshConfig.vote: expected a bool, got int"),
+        (lambda: LocalMeshConfig(uv_remesh=1),
+         "LocalMeshConfig.uv_remesh: expected a bool, got int"),
         # the barrier map's settings
         (lambda: UntangleConfig(theta=0.0),
          "UntangleConfig.theta: expected a positive finite number, got 0.0"),
