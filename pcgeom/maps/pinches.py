@@ -78,7 +78,8 @@ radius (in local spacings), or of :data:`pcgeom.maps.fills.REFILL_SHORT` spacing
 
 def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
                  bound: float, exclude: np.ndarray | None = None, *, cloud=None,
-                 twins_of=twins, memo: FillMemo | None = None) -> tuple[np.ndarray, int]:
+                 twins_of=twins, memo: FillMemo | None = None, fans_of=fan_counts
+                 ) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with the small loops held open at pinched vertices closed
     (the module's rule), and how many fans were taken off for a fill.
 
@@ -103,6 +104,8 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
     memo : pcgeom.maps.topology_batch.FillMemo, optional
         The fills' figures that earlier repairs of the cloud found (bound to it); None: a
         memo of this call's own.
+    fans_of : callable
+        :func:`pcgeom.mesh.fan_counts`, or a KnownTwins' ``fans`` (found once per faces).
     """
     from .fills import REFILL_SHORT, _empty_radius, _flat, _least_cosine
     from .topology import enclosing_radius, fill_loop, rim_walks
@@ -123,7 +126,7 @@ def mend_pinches(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.nd
         if not consistent:
             break
         fans_at = np.zeros(n, dtype=np.int64)
-        counted = fan_counts(faces, twin)
+        counted = fans_of(faces, twin)
         fans_at[:len(counted)] = counted
         rim, walks = rim_walks(faces, twin)
         short = np.zeros(n, dtype=bool)

@@ -93,7 +93,8 @@ round is tried again in the next)."""
 
 def retriangulate_regions(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, h: np.ndarray,
                           bound: float, exclude: np.ndarray | None = None, *, cloud=None,
-                          twins_of=twins) -> tuple[np.ndarray, int]:
+                          twins_of=twins, fans_of=fan_counts, parts_of=main_faces
+                          ) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with false loops closed by the re-triangulation of their
     region in Tutte's embedding (the module's rules), and how many loops that closed.
 
@@ -113,6 +114,9 @@ def retriangulate_regions(X: np.ndarray, normals: np.ndarray, faces: np.ndarray,
         The points not excluded and their k-d tree (the empty circles' test).
     twins_of : callable
         :func:`pcgeom.mesh.twins`, or a :class:`pcgeom.maps.topology_batch.KnownTwins`' ``of``.
+    fans_of, parts_of : callable
+        :func:`pcgeom.mesh.fan_counts` and :func:`pcgeom.maps.topology_batch.main_faces`, or
+        the KnownTwins' ``fans`` and ``parts`` (found once per faces array).
     """
     from .fills import _cycle, _empty_radius, _pinches, _walk_medians
     from .topology import enclosing_radius, rim_walks
@@ -134,7 +138,7 @@ def retriangulate_regions(X: np.ndarray, normals: np.ndarray, faces: np.ndarray,
         circles = perimeter / (2.0 * np.pi * _walk_medians(h[rim[:, 0]], walks))
         boundary = np.flatnonzero(twin < 0)
         # The loops of the mesh's largest part (the one every map uses), its longest left out.
-        kept = main_faces(faces, twin)[2]
+        kept = parts_of(faces, twin)[2]
         if kept is None:
             on_main = np.ones(len(walks), dtype=bool)
             longest = int(np.argmax(circles))
@@ -151,7 +155,7 @@ def retriangulate_regions(X: np.ndarray, normals: np.ndarray, faces: np.ndarray,
         # Only loops of a shape the plane fills cannot take: through a pinched vertex, or
         # crossing themselves in the plane of their normals (a round hole, simple in its
         # plane, is what those fills judged: wide, a hole of the surface).
-        pinched = fan_counts(faces, twin) > 1
+        pinched = fans_of(faces, twin) > 1
         tried = [i for i in tried if pinched[rim[walks[i], 0]].any()
                  or not _simple_in_plane(X, normals, rim[walks[i], 0])]
         keys = [frozenset(rim[w, 0].tolist()) for w in walks]

@@ -173,8 +173,8 @@ def measure(faces: np.ndarray) -> dict:
     return _measure(faces)[0]
 
 
-def _measure(faces: np.ndarray, found: dict | None = None, twins_of=twins
-             ) -> tuple[dict, np.ndarray]:
+def _measure(faces: np.ndarray, found: dict | None = None, twins_of=twins, *,
+             fans_of=fan_counts, parts_of=main_faces) -> tuple[dict, np.ndarray]:
     """Euler characteristic, boundary loops, genus, parts and pinched vertices of the largest
     part of the mesh ``faces`` (M, 3) (edge-manifold, consistently oriented), its pinched
     vertices split (each open fan its own vertex, as libigl's ``split_nonmanifold``).
@@ -185,6 +185,9 @@ def _measure(faces: np.ndarray, found: dict | None = None, twins_of=twins
         ``euler``, ``boundary_loops``, ``genus``, ``components``, ``vertices``, ``faces``,
         ``pinched``; and (n,) bool, the pinched vertices. ``found`` (a dict), when given,
         receives ``twin`` and ``consistent``: :func:`pcgeom.mesh.twins` of ``faces``.
+        ``twins_of``, ``fans_of``, ``parts_of``: :func:`pcgeom.mesh.twins`,
+        :func:`pcgeom.mesh.fan_counts` and :func:`main_faces`, or a
+        :class:`KnownTwins`' ``of``, ``fans`` and ``parts`` (found once per faces array).
     """
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0:
@@ -193,13 +196,13 @@ def _measure(faces: np.ndarray, found: dict | None = None, twins_of=twins
     twin, consistent = twins_of(faces)  # (twins_of: twins, or a KnownTwins' of)
     if found is not None:
         found.update(twin=twin, consistent=consistent)
-    main, parts, kept = main_faces(faces, twin if consistent else None)
+    main, parts, kept = parts_of(faces, twin if consistent else None)
     if parts > 1 and consistent:
         twin = sub_twins(kept, twin)
     elif parts > 1:
         twin, consistent = twins(main)
     _, following = _rim_next(main, twin)
-    fans = fan_counts(main, twin) if consistent else _fans(main, twin)
+    fans = fans_of(main, twin) if consistent else _fans(main, twin)
     used = fans > 0
     vertices = int(fans.sum())  # each fan its own vertex
     if consistent:  # each edge two half-edges, or one on the boundary
@@ -578,7 +581,8 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
     n = len(X)
     found: dict = {}
     known = KnownTwins()  # (each step's twins found once)
-    before, pinched_before = _measure(faces, found, known.of)
+    before, pinched_before = _measure(faces, found, known.of, fans_of=known.fans,
+                                        parts_of=known.parts)
     trees = CloudTree(X, exclude, cloud)
     filled = 0
     if len(faces):
@@ -606,17 +610,21 @@ def repair(X: np.ndarray, normals: np.ndarray, faces: np.ndarray, *,
             filled += refilled
             if PINCH_MEND:
                 faces, mended = mend_pinches(X, normals, faces, h, bound, exclude,
-                                             cloud=trees, twins_of=known.of, memo=memo)
+                                             cloud=trees, twins_of=known.of, memo=memo,
+                                             fans_of=known.fans)
                 filled += mended
-            after = _measure(faces, None, known.of)
+            after = _measure(faces, None, known.of, fans_of=known.fans, parts_of=known.parts)
             if REGIONS and after[0]["genus"] == 0 and after[0]["boundary_loops"] > 1:
                 relaid_faces, relaid = retriangulate_regions(X, normals, faces, h, bound, exclude,
-                                                             cloud=trees, twins_of=known.of)
+                                                             cloud=trees, twins_of=known.of,
+                                                             fans_of=known.fans,
+                                                             parts_of=known.parts)
                 relaid_faces, slits = fill_slits(X, normals, relaid_faces, h, bound, exclude,
                                                  cloud=trees)
                 if relaid or slits:
                     faces, filled = relaid_faces, filled + relaid + slits
-                    after = _measure(faces, None, known.of)
+                    after = _measure(faces, None, known.of, fans_of=known.fans,
+                                     parts_of=known.parts)
             return faces, _topology(before, pinched_before, *after, filled, 0)
         faces, filled, stuck, long = _fill_pass(X, normals, faces, h, bound, exclude,
                                                 loops=loops, found=found, cloud=trees)

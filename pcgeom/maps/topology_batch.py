@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh import cross3, face_parts, half_edges, twins
+from ..mesh import cross3, face_parts, fan_counts, half_edges, twins
 
 __all__ = ["loop_figures", "least_area_folds", "triage", "main_faces", "sub_twins", "edge_keys",
            "stable_order", "Corners", "CloudTree", "add_fills", "KnownTwins", "cut_at_repeats",
@@ -339,16 +339,42 @@ def add_fills(faces: np.ndarray, fills: list[np.ndarray]) -> tuple[np.ndarray, i
 class KnownTwins:
     """:func:`pcgeom.mesh.twins` of the faces array last asked about, kept while the same
     array (the same object: the repair's steps return their input when they change nothing)
-    is asked about again."""
+    is asked about again; and so its :func:`pcgeom.mesh.fan_counts` and :func:`main_faces`
+    with those twins (:meth:`fans`, :meth:`parts`; read-only results)."""
 
     def __init__(self):
         self._faces = None
         self._found = None
+        self._fans = None
+        self._parts = None
 
     def of(self, faces: np.ndarray) -> tuple[np.ndarray, bool]:
         if faces is not self._faces:
             self._faces, self._found = faces, twins(faces)
+            self._fans = self._parts = None
         return self._found
+
+    def _known(self, faces: np.ndarray, twin: np.ndarray | None) -> bool:
+        return faces is self._faces and twin is not None and twin is self._found[0]
+
+    def fans(self, faces: np.ndarray, twin: np.ndarray) -> np.ndarray:
+        """:func:`pcgeom.mesh.fan_counts` ``(faces, twin)``, found once for the faces and
+        twins :meth:`of` last gave."""
+        if not self._known(faces, twin):
+            return fan_counts(faces, twin)
+        if self._fans is None:
+            self._fans = fan_counts(faces, twin)
+        return self._fans
+
+    def parts(self, faces: np.ndarray, twin: np.ndarray | None = None
+              ) -> tuple[np.ndarray, int, np.ndarray | None]:
+        """:func:`main_faces` ``(faces, twin)``, found once for the faces and twins
+        :meth:`of` last gave."""
+        if not self._known(faces, twin):
+            return main_faces(faces, twin)
+        if self._parts is None:
+            self._parts = main_faces(faces, twin)
+        return self._parts
 
 
 def cut_at_repeats(loop: np.ndarray) -> list[np.ndarray]:

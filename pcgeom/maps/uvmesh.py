@@ -178,7 +178,8 @@ def _repair(X: np.ndarray, normals: np.ndarray, F: np.ndarray, h: np.ndarray, bo
 
     known = KnownTwins()
     found: dict = {}
-    before, pinched_before = tp._measure(F, found, known.of)
+    before, pinched_before = tp._measure(F, found, known.of, fans_of=known.fans,
+                                           parts_of=known.parts)
     trees = CloudTree(X, exclude, tree)
     loops = tp.simple_loops(F, found.get("twin"))
     F, filled, _, _ = tp._fill_pass(X, normals, F, h, bound, exclude, loops=loops,
@@ -189,17 +190,19 @@ def _repair(X: np.ndarray, normals: np.ndarray, F: np.ndarray, h: np.ndarray, bo
     filled += refilled
     if tp.PINCH_MEND:
         F, mended = mend_pinches(X, normals, F, h, bound, exclude, cloud=trees,
-                                 twins_of=known.of, memo=memo)
+                                 twins_of=known.of, memo=memo, fans_of=known.fans)
         filled += mended
-    after = tp._measure(F, None, known.of)
+    after = tp._measure(F, None, known.of, fans_of=known.fans, parts_of=known.parts)
     if tp.REGIONS and after[0]["genus"] == 0 and after[0]["boundary_loops"] > 1:
         relaid_faces, relaid = tp.retriangulate_regions(X, normals, F, h, bound, exclude,
-                                                        cloud=trees, twins_of=known.of)
+                                                        cloud=trees, twins_of=known.of,
+                                                        fans_of=known.fans,
+                                                        parts_of=known.parts)
         relaid_faces, slits = tp.fill_slits(X, normals, relaid_faces, h, bound, exclude,
                                             cloud=trees)
         if relaid or slits:
             F, filled = relaid_faces, filled + relaid + slits
-            after = tp._measure(F, None, known.of)
+            after = tp._measure(F, None, known.of, fans_of=known.fans, parts_of=known.parts)
     return F, tp._topology(before, pinched_before, *after, filled, 0)
 
 
