@@ -589,7 +589,8 @@ apart 0.0099, 8 -> 0.0077, 5 / 0.0030 -> 0.0029; the pleats 1.5 / 2 / 2.5 spacin
 90 -> 0.0353, 55 / 0.0102, 1 -> 0.0058, 0 / 0.0045 -> 0.0037); face_human_choi free 0.0310,
 702 -> 0.0278, 628, onto the disk 0.0324, 714 -> 0.0315, 624; peaks_three_cgal free 0.0406
 -> 0.0402; face_3holes_small_choi and peaks_7holes_choi, free and disk, the same. It costs a
-mesh and a solve a round (at least one; wall time 1.3-1.6x on face_human_choi)."""
+mesh and a solve a round (at least one where the kept mesh shows a bridge,
+:func:`pcgeom.maps.bridges.shows_bridges`; wall time 1.3-1.6x on face_human_choi)."""
 
 
 def _cut(Xn: np.ndarray, kept: tuple, solve, settings, *, outlier: np.ndarray,
