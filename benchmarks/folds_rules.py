@@ -143,19 +143,37 @@ def vote_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
     fast = pcgeom.get_preset("fast")
     off = dataclasses.replace(fast, local_mesh=dataclasses.replace(fast.local_mesh,
                                                                    vote=False))
+    cases = ((case, V, F, None, domains) for case, V, F, domains in vote_surfaces(points, seeds))
+    return _off_on_rows(cases, ("vote off", "on"), off_config=off, kept="voted_kept")
+
+
+def _off_on_rows(cases, labels: tuple[str, str], *, off_config=None,
+                 off_context=contextlib.nullcontext, kept: str | None = None) -> list[dict]:
+    """Each ``(case, V, F, normals, domains)`` of ``cases`` mapped onto each of its domains
+    by ``fast``, one run ``"off"`` (``off_config`` in place of ``fast`` when given, inside
+    ``off_context()``) and one ``"on"`` after it in this process: angle, flips and wall
+    seconds of each, and, with ``kept``, the history's flag of that name (False when no
+    record holds it). ``labels`` name the two runs in the log line."""
+    import pcgeom
+
+    fast = pcgeom.get_preset("fast")
     rows = []
-    for case, V, F, domains in vote_surfaces(points, seeds):
+    for case, V, F, N, domains in cases:
         for domain in domains:
             row = {"case": case, "domain": domain}
-            for key, config in (("off", off), ("on", fast)):
-                with warnings.catch_warnings():
+            for key in ("off", "on"):
+                with warnings.catch_warnings(), (off_context() if key == "off"
+                                                 else contextlib.nullcontext()):
                     warnings.simplefilter("ignore")
+                    config = off_config if key == "off" and off_config is not None else fast
                     result, seconds = H.timed(pcgeom.parametrize, V, domain, config=config,
-                                              seed=0, progress=False)
+                                              seed=0, progress=False, normals=N)
                 row[key] = {"wall_s": seconds, **H.score_map(result.uv, V, F)}
-                record = next((r for r in result.history if "voted" in r), {})
-                row[key]["kept"] = record.get("voted_kept", False)
-            H.log(f"{case} {domain}: vote off {row['off']['rad']:.4f}, on {row['on']['rad']:.4f}")
+                if kept is not None:
+                    record = next((r for r in result.history if kept in r), {})
+                    row[key]["kept"] = record.get(kept, False)
+            H.log(f"{case} {domain}: {labels[0]} {row['off']['rad']:.4f}, {labels[1]} "
+                  f"{row['on']['rad']:.4f}")
             rows.append(row)
     return rows
 
@@ -200,25 +218,8 @@ def cut_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
     mesh with its bridges cut and the unmeshed points placed from their rings
     (:func:`cut_off`), one after the other in this process: angle, flips and wall seconds of
     each, and whether the cut mesh was kept."""
-    import pcgeom
-
-    fast = pcgeom.get_preset("fast")
-    rows = []
-    for case, V, F, domains in vote_surfaces(points, seeds):
-        for domain in domains:
-            row = {"case": case, "domain": domain}
-            for key in ("off", "on"):
-                with warnings.catch_warnings(), (cut_off() if key == "off"
-                                                 else contextlib.nullcontext()):
-                    warnings.simplefilter("ignore")
-                    result, seconds = H.timed(pcgeom.parametrize, V, domain, config=fast,
-                                              seed=0, progress=False)
-                row[key] = {"wall_s": seconds, **H.score_map(result.uv, V, F)}
-                record = next((r for r in result.history if "cut_kept" in r), {})
-                row[key]["kept"] = record.get("cut_kept", False)
-            H.log(f"{case} {domain}: cut off {row['off']['rad']:.4f}, on {row['on']['rad']:.4f}")
-            rows.append(row)
-    return rows
+    cases = ((case, V, F, None, domains) for case, V, F, domains in vote_surfaces(points, seeds))
+    return _off_on_rows(cases, ("cut off", "on"), off_context=cut_off, kept="cut_kept")
 
 
 def render_cut(rows) -> list[str]:
@@ -269,7 +270,6 @@ def lid_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
     mesh's vertex normals (free and onto the disk). Angle and flips on the true triangles."""
     import igl
 
-    import pcgeom
     from pcgeom.synthetic import pleated_sheet
     from pcgeom.synthetic_folds import deep_folds
 
@@ -290,22 +290,7 @@ def lid_rows(points: int = 6000, seeds=(0, 1)) -> list[dict]:
                                            np.ascontiguousarray(s.F, dtype=np.int64))
                 yield name, s.V, s.F, N, ("free", "disk")
 
-    fast = pcgeom.get_preset("fast")
-    rows = []
-    for case, V, F, N, domains in cases():
-        for domain in domains:
-            row = {"case": case, "domain": domain}
-            for key in ("off", "on"):
-                with warnings.catch_warnings(), (lids_kept() if key == "off"
-                                                 else contextlib.nullcontext()):
-                    warnings.simplefilter("ignore")
-                    result, seconds = H.timed(pcgeom.parametrize, V, domain, config=fast,
-                                              seed=0, progress=False, normals=N)
-                row[key] = {"wall_s": seconds, **H.score_map(result.uv, V, F)}
-            H.log(f"{case} {domain}: lids kept {row['off']['rad']:.4f}, cut "
-                  f"{row['on']['rad']:.4f}")
-            rows.append(row)
-    return rows
+    return _off_on_rows(cases(), ("lids kept", "cut"), off_context=lids_kept)
 
 
 def render_lids(rows) -> list[str]:
