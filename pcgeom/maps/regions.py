@@ -96,7 +96,8 @@ def retriangulate_regions(X: np.ndarray, normals: np.ndarray, faces: np.ndarray,
                           twins_of=twins, fans_of=fan_counts, parts_of=main_faces
                           ) -> tuple[np.ndarray, int]:
     """The open mesh ``faces`` with false loops closed by the re-triangulation of their
-    region in Tutte's embedding (the module's rules), and how many loops that closed.
+    region in a layout of its points (the plane of their normals, else the classical MDS of
+    their geodesics; the module's rules), and how many loops that closed.
 
     Parameters
     ----------
